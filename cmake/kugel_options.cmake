@@ -1,0 +1,16 @@
+# Warnings and sanitizers for every Kugel target, through one interface target.
+add_library(kugel_options INTERFACE)
+target_compile_options(kugel_options INTERFACE
+  -Wall -Wextra -Wpedantic -Wconversion -Wshadow -Wnon-virtual-dtor -Wold-style-cast)
+if(KUGEL_WERROR)
+  target_compile_options(kugel_options INTERFACE -Werror)
+endif()
+if(KUGEL_SANITIZE)
+  target_compile_options(kugel_options INTERFACE
+    -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+  target_link_options(kugel_options INTERFACE -fsanitize=address,undefined)
+endif()
+if(KUGEL_TSAN)
+  target_compile_options(kugel_options INTERFACE -fsanitize=thread -fno-omit-frame-pointer)
+  target_link_options(kugel_options INTERFACE -fsanitize=thread)
+endif()
