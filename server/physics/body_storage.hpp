@@ -1,0 +1,84 @@
+#pragma once
+
+#include "body_id.hpp"
+#include "vec.hpp"
+
+#include <cstddef>
+#include <optional>
+#include <span>
+#include <vector>
+
+namespace kugel::physics {
+
+/// What it takes to create a body.
+struct body_desc
+{
+    vec3 position = vec3::Zero(); ///< m
+    vec3 velocity = vec3::Zero(); ///< m/s; must be zero for a static body
+    double mass = 1.0;            ///< kg; > 0 for a dynamic body, >= 0 for a static one
+    double radius = 0.0;          ///< m, >= 0; 0 makes a point mass, which never collides
+    double charge = 0.0;          ///< C (or the scene's charge unit)
+    bool is_static = false;       ///< never moves: inverse mass 0, yet still attracts and repels
+};
+
+/// m = ρ · 4/3 · π · r³ (lecture: "Masse m = ρ · V = ρ · 4π/3 · r³").
+double mass_from_density(double density, double radius);
+
+/// Bodies as a structure of arrays: one contiguous array per quantity, one dense slot per
+/// live body. Removal moves the last body into the hole, so slots change on removal but ids
+/// do not. Order is deterministic: same calls, same slots.
+class body_storage
+{
+public:
+    /// Adds a body; throws std::invalid_argument naming the bad field (non-finite values,
+    /// negative radius, non-positive mass of a dynamic body, velocity on a static body).
+    body_id add(body_desc const& desc);
+
+    /// Removes a body; false when the id names no live body.
+    bool remove(body_id id);
+
+    bool contains(body_id id) const { return slot_of(id).has_value(); }
+
+    /// The dense slot of a live body, or nothing.
+    std::optional<std::size_t> slot_of(body_id id) const;
+
+    std::size_t size() const { return positions_.size(); }
+    bool empty() const { return positions_.empty(); }
+    void reserve(std::size_t n);
+
+    std::span<vec3> positions() { return positions_; }
+    std::span<vec3 const> positions() const { return positions_; }
+    std::span<vec3> velocities() { return velocities_; }
+    std::span<vec3 const> velocities() const { return velocities_; }
+    std::span<double const> masses() const { return masses_; }
+    std::span<double const> inverse_masses() const { return inverse_masses_; }
+    std::span<double const> radii() const { return radii_; }
+    std::span<double const> charges() const { return charges_; }
+    std::span<body_id const> ids() const { return ids_; }
+
+    /// Rebuilds a body's description from its slot (for checkpoints and tests).
+    body_desc describe(std::size_t slot) const;
+
+private:
+    struct slot_entry
+    {
+        std::uint32_t generation = 1; ///< of the body in (or last in) this id index
+        std::uint32_t dense = 0;      ///< its dense slot while alive
+        bool alive = false;
+    };
+
+    // Hot: read every step.
+    std::vector<vec3> positions_;       ///< m
+    std::vector<vec3> velocities_;      ///< m/s
+    std::vector<double> inverse_masses_; ///< 1/kg, 0 for static bodies
+    std::vector<double> radii_;         ///< m, >= 0
+    // Read by force models and diagnostics.
+    std::vector<double> masses_;  ///< kg
+    std::vector<double> charges_; ///< C
+    std::vector<body_id> ids_;
+
+    std::vector<slot_entry> sparse_;          ///< indexed by body_id::index
+    std::vector<std::uint32_t> free_indices_; ///< reused last-in first-out
+};
+
+} // namespace kugel::physics

@@ -1,0 +1,146 @@
+#include "forces.hpp"
+
+#include <cmath>
+#include <sstream>
+
+namespace kugel::physics {
+
+namespace {
+
+[[noreturn]] void throw_singular(std::string_view model, body_storage const& bodies,
+                                 std::span<vec3 const> x, std::size_t i, std::size_t j)
+{
+    std::ostringstream out;
+    out << model << " is singular: bodies " << to_string(bodies.ids()[i]) << " and "
+        << to_string(bodies.ids()[j]) << " are at distance " << (x[j] - x[i]).norm()
+        << " (positions " << x[i].transpose() << " and " << x[j].transpose()
+        << "), where 1/r^2 overflows; give the model a softening > 0";
+    throw singular_force_error(out.str());
+}
+
+void check_parameter(bool ok, char const* what)
+{
+    if (!ok)
+        throw std::invalid_argument(what);
+}
+
+/// The pair loop shared by the two inverse-square laws. `coupling(i, j)` is the signed
+/// strength s so that the force on i is s·(x_j − x_i)/(r² + ε²)^{3/2}; a zero coupling skips
+/// the pair. Each pair is visited once and applied to both bodies.
+template <class Coupling>
+void add_inverse_square_forces(std::string_view model, double softening,
+                               body_storage const& bodies, std::span<vec3 const> x,
+                               std::span<vec3> forces, Coupling coupling)
+{
+    double const eps2 = softening * softening;
+    std::size_t const n = x.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        vec3 const xi = x[i];
+        vec3 fi = vec3::Zero();
+        for (std::size_t j = i + 1; j < n; ++j) {
+            double const s = coupling(i, j);
+            if (s == 0.0)
+                continue;
+            vec3 const d = x[j] - xi;
+            double const r2 = d.squaredNorm() + eps2;
+            double const inv_r = 1.0 / std::sqrt(r2);
+            double const scale = s * inv_r * inv_r * inv_r;
+            if (!std::isfinite(scale))
+                throw_singular(model, bodies, x, i, j);
+            vec3 const f = scale * d;
+            fi += f;
+            forces[j] -= f;
+        }
+        forces[i] += fi;
+    }
+}
+
+template <class Coupling>
+double inverse_square_potential(std::string_view model, double softening,
+                                body_storage const& bodies, std::span<vec3 const> x,
+                                Coupling coupling)
+{
+    double const eps2 = softening * softening;
+    double u = 0.0;
+    std::size_t const n = x.size();
+    for (std::size_t i = 0; i < n; ++i) {
+        for (std::size_t j = i + 1; j < n; ++j) {
+            double const s = coupling(i, j);
+            if (s == 0.0)
+                continue;
+            double const term = s / std::sqrt((x[j] - x[i]).squaredNorm() + eps2);
+            if (!std::isfinite(term))
+                throw_singular(model, bodies, x, i, j);
+            u += term;
+        }
+    }
+    return u;
+}
+
+} // namespace
+
+void uniform_field::add_forces(body_storage const& bodies, std::span<vec3 const>,
+                               std::span<vec3> forces) const
+{
+    auto const m = bodies.masses();
+    for (std::size_t i = 0; i < forces.size(); ++i)
+        forces[i] += m[i] * g_;
+}
+
+double uniform_field::potential_energy(body_storage const& bodies, std::span<vec3 const> x) const
+{
+    auto const m = bodies.masses();
+    double u = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i)
+        u -= m[i] * g_.dot(x[i]);
+    return u;
+}
+
+newtonian_gravity::newtonian_gravity(double G, double softening) : G_(G), softening_(softening)
+{
+    check_parameter(std::isfinite(G) && G >= 0.0, "gravity G must be finite and >= 0");
+    check_parameter(std::isfinite(softening) && softening >= 0.0,
+                    "gravity softening must be finite and >= 0");
+}
+
+void newtonian_gravity::add_forces(body_storage const& bodies, std::span<vec3 const> x,
+                                   std::span<vec3> forces) const
+{
+    auto const m = bodies.masses();
+    add_inverse_square_forces(name(), softening_, bodies, x, forces,
+                              [&](std::size_t i, std::size_t j) { return G_ * m[i] * m[j]; });
+}
+
+double newtonian_gravity::potential_energy(body_storage const& bodies,
+                                           std::span<vec3 const> x) const
+{
+    auto const m = bodies.masses();
+    return inverse_square_potential(name(), softening_, bodies, x, [&](std::size_t i, std::size_t j) {
+        return -G_ * m[i] * m[j];
+    });
+}
+
+coulomb::coulomb(double k, double softening) : k_(k), softening_(softening)
+{
+    check_parameter(std::isfinite(k) && k >= 0.0, "coulomb k must be finite and >= 0");
+    check_parameter(std::isfinite(softening) && softening >= 0.0,
+                    "coulomb softening must be finite and >= 0");
+}
+
+void coulomb::add_forces(body_storage const& bodies, std::span<vec3 const> x,
+                         std::span<vec3> forces) const
+{
+    auto const q = bodies.charges();
+    add_inverse_square_forces(name(), softening_, bodies, x, forces,
+                              [&](std::size_t i, std::size_t j) { return -k_ * q[i] * q[j]; });
+}
+
+double coulomb::potential_energy(body_storage const& bodies, std::span<vec3 const> x) const
+{
+    auto const q = bodies.charges();
+    return inverse_square_potential(name(), softening_, bodies, x, [&](std::size_t i, std::size_t j) {
+        return k_ * q[i] * q[j];
+    });
+}
+
+} // namespace kugel::physics

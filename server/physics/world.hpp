@@ -1,0 +1,68 @@
+#pragma once
+
+#include "body_storage.hpp"
+#include "forces.hpp"
+#include "integrators.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <vector>
+
+namespace kugel::physics {
+
+struct world_settings
+{
+    integrator_kind integrator = integrator_kind::velocity_verlet;
+    int substeps = 1; ///< >= 1: step(dt) runs this many integrator steps of dt/substeps
+};
+
+/// The simulated world: bodies, the force models its scene named, and the integrator.
+/// Single-threaded and free of I/O; whoever owns it (a room, a headless run) drives step().
+class world
+{
+public:
+    explicit world(world_settings settings = {});
+
+    /// Throws std::invalid_argument on a body the storage refuses (see body_storage::add).
+    body_id add_body(body_desc const& desc);
+    /// False when the id names no live body.
+    bool remove_body(body_id id);
+
+    /// Adds J/m to a dynamic body's velocity (lecture: F = m·a, integrated over the impulse).
+    /// False when the id names no live body; a static body ignores impulses.
+    bool apply_impulse(body_id id, vec3 const& impulse);
+
+    void add_force(std::unique_ptr<force_model> model);
+
+    /// Advances the world by dt seconds (dt finite and >= 0, else std::invalid_argument).
+    /// Throws singular_force_error when a force is singular; the world is then unchanged.
+    void step(double dt);
+
+    /// The accelerations of all bodies at positions x (what the integrator calls).
+    void accelerations(std::span<vec3 const> x, std::span<vec3> a) const;
+
+    body_storage const& bodies() const { return bodies_; }
+    std::span<std::unique_ptr<force_model> const> forces() const { return forces_; }
+    world_settings const& settings() const { return settings_; }
+
+    double time() const { return time_; }                ///< s since the start
+    std::uint64_t steps() const { return steps_; }        ///< calls to step()
+    std::uint64_t force_evaluations() const { return force_evaluations_; }
+
+    /// True when every force named is constant (or none is): the exact integrator is exact.
+    bool forces_are_constant() const;
+
+private:
+    void integrate(double h);
+
+    world_settings settings_;
+    body_storage bodies_;
+    std::vector<std::unique_ptr<force_model>> forces_;
+    integrator_workspace workspace_;
+    double time_ = 0.0;
+    double time_compensation_ = 0.0; ///< rounding lost from time_, fed back into the next sum
+    std::uint64_t steps_ = 0;
+    mutable std::uint64_t force_evaluations_ = 0;
+};
+
+} // namespace kugel::physics

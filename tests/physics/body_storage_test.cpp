@@ -1,0 +1,105 @@
+#include "physics/body_storage.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <limits>
+#include <numbers>
+
+namespace kugel::physics {
+namespace {
+
+body_desc at(double x) { return {vec3(x, 0, 0), vec3::Zero(), 1.0, 0.0, 0.0, false}; }
+
+TEST(MassFromDensity, IsDensityTimesSphereVolume)
+{
+    // m = ρ·4/3·π·r³; water (1000 kg/m³) in a sphere of radius 0.1 m. The two sides round
+    // differently (0.1³ is not 1e-3 in binary): a few ulps, 1e-15 relative.
+    double const expected = 1000.0 * 4.0 / 3.0 * std::numbers::pi * 1e-3;
+    EXPECT_NEAR(mass_from_density(1000.0, 0.1), expected, 1e-15 * expected);
+    EXPECT_EQ(mass_from_density(1000.0, 0.0), 0.0);
+}
+
+TEST(BodyStorage, AddGivesDistinctLiveIds)
+{
+    body_storage bodies;
+    body_id const a = bodies.add(at(1));
+    body_id const b = bodies.add(at(2));
+    EXPECT_NE(a, b);
+    EXPECT_FALSE(is_null(a));
+    EXPECT_TRUE(bodies.contains(a));
+    EXPECT_EQ(bodies.size(), 2U);
+    EXPECT_EQ(bodies.positions()[*bodies.slot_of(b)].x(), 2.0);
+}
+
+TEST(BodyStorage, RemoveKeepsOtherIdsPointingAtTheirBodies)
+{
+    body_storage bodies;
+    body_id const a = bodies.add(at(1));
+    body_id const b = bodies.add(at(2));
+    body_id const c = bodies.add(at(3));
+    ASSERT_TRUE(bodies.remove(a)); // moves c into a's slot
+    EXPECT_FALSE(bodies.contains(a));
+    EXPECT_EQ(bodies.size(), 2U);
+    EXPECT_EQ(bodies.positions()[*bodies.slot_of(b)].x(), 2.0);
+    EXPECT_EQ(bodies.positions()[*bodies.slot_of(c)].x(), 3.0);
+    EXPECT_EQ(bodies.ids()[*bodies.slot_of(c)], c);
+}
+
+TEST(BodyStorage, ReusedSlotGetsNewGenerationSoStaleIdsStayDead)
+{
+    body_storage bodies;
+    body_id const a = bodies.add(at(1));
+    ASSERT_TRUE(bodies.remove(a));
+    body_id const b = bodies.add(at(2));
+    EXPECT_EQ(b.index, a.index);
+    EXPECT_NE(b.generation, a.generation);
+    EXPECT_FALSE(bodies.contains(a));
+    EXPECT_FALSE(bodies.remove(a));
+    EXPECT_TRUE(bodies.contains(b));
+}
+
+TEST(BodyStorage, NullAndUnknownIdsNameNothing)
+{
+    body_storage bodies;
+    bodies.add(at(1));
+    EXPECT_FALSE(bodies.contains(body_id{}));
+    EXPECT_FALSE(bodies.contains(body_id{7, 1}));
+    EXPECT_FALSE(bodies.remove(body_id{7, 1}));
+}
+
+TEST(BodyStorage, StaticBodyHasZeroInverseMassButKeepsItsMass)
+{
+    body_storage bodies;
+    body_id const sun = bodies.add({vec3::Zero(), vec3::Zero(), 5.0, 1.0, 0.0, true});
+    auto const slot = *bodies.slot_of(sun);
+    EXPECT_EQ(bodies.inverse_masses()[slot], 0.0);
+    EXPECT_EQ(bodies.masses()[slot], 5.0);
+    EXPECT_TRUE(bodies.describe(slot).is_static);
+}
+
+TEST(BodyStorage, RefusesBadBodiesAndNamesTheField)
+{
+    body_storage bodies;
+    double const nan = std::numeric_limits<double>::quiet_NaN();
+    auto refuses = [&](body_desc const& d, std::string const& word) {
+        try {
+            bodies.add(d);
+            ADD_FAILURE() << "accepted a body with bad " << word;
+        } catch (std::invalid_argument const& e) {
+            EXPECT_NE(std::string(e.what()).find(word), std::string::npos) << e.what();
+        }
+    };
+    refuses({vec3(nan, 0, 0), vec3::Zero(), 1.0, 0.0, 0.0, false}, "position");
+    refuses({vec3::Zero(), vec3(0, INFINITY, 0), 1.0, 0.0, 0.0, false}, "velocity");
+    refuses({vec3::Zero(), vec3::Zero(), 1.0, -1.0, 0.0, false}, "radius");
+    refuses({vec3::Zero(), vec3::Zero(), 0.0, 0.0, 0.0, false}, "mass");
+    refuses({vec3::Zero(), vec3::Zero(), -2.0, 0.0, 0.0, false}, "mass");
+    refuses({vec3::Zero(), vec3::Zero(), 1e-320, 0.0, 0.0, false}, "mass");
+    refuses({vec3::Zero(), vec3(1, 0, 0), 1.0, 0.0, 0.0, true}, "velocity");
+    refuses({vec3::Zero(), vec3::Zero(), 1.0, 0.0, nan, false}, "charge");
+    EXPECT_TRUE(bodies.empty()); // nothing half-added
+}
+
+} // namespace
+} // namespace kugel::physics
