@@ -1,0 +1,97 @@
+#pragma once
+
+#include "physics/aabb.hpp"
+#include "physics/body_storage.hpp"
+#include "physics/integrators.hpp"
+#include "physics/world.hpp"
+
+#include <cstdint>
+#include <filesystem>
+#include <optional>
+#include <span>
+#include <stdexcept>
+#include <string>
+#include <string_view>
+#include <vector>
+
+namespace kugel::scene {
+
+/// A scene that cannot be loaded. what() names the source, the field (a JSON pointer such as
+/// /bodies/3/radius) and the reason: "kepler.json: /bodies/1/mass: must be > 0, got -2".
+class scene_error : public std::runtime_error
+{
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct uniform_field_settings
+{
+    physics::vec3 g{0.0, 0.0, -9.81}; ///< m/s²
+};
+
+struct gravity_settings
+{
+    double G = 6.6743e-11;  ///< m³/(kg·s²)
+    double softening = 0.0; ///< m, Plummer ε
+};
+
+struct coulomb_settings
+{
+    double k = 8.9875517923e9; ///< N·m²/C²
+    double softening = 0.0;    ///< m
+};
+
+/// The force models a scene names; only these are built.
+struct force_settings
+{
+    std::optional<uniform_field_settings> uniform_field;
+    std::optional<gravity_settings> gravity;
+    std::optional<coulomb_settings> coulomb;
+};
+
+/// N bodies placed uniformly at random in a box, each with a velocity drawn uniformly from
+/// the ball of radius max_speed. Seeded: the same scene always gives the same bodies.
+struct body_generator
+{
+    std::uint64_t count = 0;
+    std::uint64_t seed = 1;
+    physics::aabb region;   ///< m
+    double max_speed = 0.0; ///< m/s
+    double radius = 0.0;    ///< m
+    double mass = 1.0;      ///< kg, from `mass` or from `density`
+    double charge = 0.0;    ///< C
+};
+
+/// A validated scene: everything a world needs, in engine units.
+struct scene
+{
+    std::string name;
+    std::string description;
+    double dt = 0.0; ///< s per step, > 0
+    int substeps = 1;
+    physics::integrator_kind integrator = physics::integrator_kind::velocity_verlet;
+    force_settings forces;
+    std::vector<physics::body_desc> bodies;
+    std::vector<body_generator> generators;
+
+    /// Explicit bodies plus every generator's count.
+    std::uint64_t body_count() const;
+};
+
+/// The most bodies one scene may create: a typo in a count fails fast, not out of memory.
+inline constexpr std::uint64_t max_scene_bodies = 10'000'000;
+
+/// Parses and validates a scene from JSON text. `source` names it in error messages (usually
+/// the file name). Each override is "PATH=VALUE" as for `--set` (see apply_override) and is
+/// applied to the document before validation, so an override is checked like the file.
+scene parse_scene(std::string_view text, std::string const& source,
+                  std::span<std::string const> overrides = {});
+
+/// Reads and parses a scene file; throws scene_error when it cannot be read or is invalid.
+scene load_scene(std::filesystem::path const& file, std::span<std::string const> overrides = {});
+
+/// Creates the world a scene describes: its settings, force models and bodies, generators
+/// expanded in order after the explicit bodies.
+physics::world build_world(scene const& s);
+
+} // namespace kugel::scene

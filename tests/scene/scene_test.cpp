@@ -1,0 +1,265 @@
+#include "scene/scene.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+#include <valijson/adapters/nlohmann_json_adapter.hpp>
+#include <valijson/schema.hpp>
+#include <valijson/schema_parser.hpp>
+#include <valijson/validator.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+#include <string>
+
+namespace kugel::scene {
+namespace {
+
+std::filesystem::path const source_dir = KUGEL_SOURCE_DIR;
+
+std::string read_file(std::filesystem::path const& path)
+{
+    std::ifstream in(path);
+    std::ostringstream out;
+    out << in.rdbuf();
+    return out.str();
+}
+
+/// The published schema, so the tests hold the loader and the schema to the same rules.
+class scene_schema
+{
+public:
+    scene_schema()
+    {
+        auto const doc = nlohmann::json::parse(read_file(source_dir / "scenes/scene.schema.json"));
+        valijson::SchemaParser parser;
+        valijson::adapters::NlohmannJsonAdapter adapter(doc);
+        parser.populateSchema(adapter, schema_);
+    }
+
+    bool accepts(nlohmann::json const& doc) const
+    {
+        valijson::Validator validator;
+        valijson::adapters::NlohmannJsonAdapter adapter(doc);
+        return validator.validate(schema_, adapter, nullptr);
+    }
+
+private:
+    valijson::Schema schema_;
+};
+
+scene_schema const& schema()
+{
+    static scene_schema const instance;
+    return instance;
+}
+
+std::string error_of(std::string const& text, std::vector<std::string> const& overrides = {})
+{
+    try {
+        parse_scene(text, "test.json", overrides);
+    } catch (scene_error const& e) {
+        return e.what();
+    }
+    return "(no error)";
+}
+
+TEST(BundledScenes, LoadBuildAndMatchTheSchema)
+{
+    int count = 0;
+    for (auto const& entry : std::filesystem::directory_iterator(source_dir / "scenes")) {
+        if (entry.path().extension() != ".json" || entry.path().filename() == "scene.schema.json")
+            continue;
+        ++count;
+        SCOPED_TRACE(entry.path().string());
+        EXPECT_TRUE(schema().accepts(nlohmann::json::parse(read_file(entry.path()))));
+        scene const s = load_scene(entry.path());
+        EXPECT_EQ(s.name + ".json", entry.path().filename().string());
+        physics::world const w = build_world(s);
+        EXPECT_EQ(w.bodies().size(), s.body_count());
+        EXPECT_GT(w.bodies().size(), 0U);
+    }
+    EXPECT_GE(count, 4);
+}
+
+struct bad_case
+{
+    char const* what;
+    char const* text;
+    char const* message; ///< must appear in the error: the field and the reason
+    bool schema_can_tell = true; ///< false: not JSON at all, or a rule JSON Schema cannot state
+};
+
+void PrintTo(bad_case const& c, std::ostream* out) { *out << c.what; }
+
+class BadScene : public ::testing::TestWithParam<bad_case>
+{};
+
+TEST_P(BadScene, IsRefusedNamingTheFileFieldAndReason)
+{
+    auto const& c = GetParam();
+    std::string const error = error_of(c.text);
+    EXPECT_NE(error.find("test.json: "), std::string::npos) << error;
+    EXPECT_NE(error.find(c.message), std::string::npos) << "got: " << error;
+    if (c.schema_can_tell) {
+        EXPECT_FALSE(schema().accepts(nlohmann::json::parse(c.text))) << "the schema accepts it";
+    }
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Cases, BadScene,
+    ::testing::Values(
+        bad_case{"unknown_integrator", R"({"dt": 0.1, "integrator": "leapfrog"})",
+                 "/integrator: unknown integrator 'leapfrog' (known: explicit_euler"},
+        bad_case{"negative_radius",
+                 R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1, "radius": -1}]})",
+                 "/bodies/0/radius: must be >= 0, got -1"},
+        bad_case{"missing_dt", R"({"name": "x"})", "/dt: missing (required)"},
+        bad_case{"missing_position", R"({"dt": 1, "bodies": [{"mass": 1}]})",
+                 "/bodies/0/position: missing"},
+        bad_case{"nan_literal", R"({"dt": NaN})", "not valid JSON", false},
+        bad_case{"overflowing_number", R"({"dt": 1e999})", "not valid JSON", false},
+        bad_case{"truncated", R"({"dt": 0.1, "bodies": [)", "not valid JSON", false},
+        bad_case{"dt_as_string", R"({"dt": "0.01"})", "/dt: must be a number, got string"},
+        bad_case{"zero_dt", R"({"dt": 0})", "/dt: must be > 0, got 0"},
+        bad_case{"unknown_force", R"({"dt": 0.1, "forces": {"magnetism": {}}})",
+                 "/forces/magnetism: unknown field (known here: uniform_field, gravity, coulomb)"},
+        bad_case{"unknown_top_level_field", R"({"dt": 0.1, "dtt": 0.2})", "/dtt: unknown field"},
+        bad_case{"negative_softening", R"({"dt": 0.1, "forces": {"gravity": {"softening": -1}}})",
+                 "/forces/gravity/softening: must be >= 0"},
+        bad_case{"vector_of_two", R"({"dt": 0.1, "bodies": [{"position": [0,0], "mass": 1}]})",
+                 "/bodies/0/position: must be an array of 3 numbers"},
+        bad_case{"vector_with_string",
+                 R"({"dt": 0.1, "bodies": [{"position": [0,"a",0], "mass": 1}]})",
+                 "/bodies/0/position/1: must be a number"},
+        bad_case{"no_mass", R"({"dt": 0.1, "bodies": [{"position": [0,0,0]}]})",
+                 "/bodies/0: needs a mass (kg) or a density"},
+        bad_case{"negative_mass", R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": -2}]})",
+                 "/bodies/0/mass: must be > 0, got -2"},
+        bad_case{"mass_and_density",
+                 R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1, "density": 2, "radius": 1}]})",
+                 "/bodies/0: give either mass or density, not both"},
+        bad_case{"static_with_velocity",
+                 R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "velocity": [1,0,0], "static": true}]})",
+                 "/bodies/0/velocity: a static body cannot move"},
+        bad_case{"fractional_count",
+                 R"({"dt": 0.1, "generators": [{"count": 2.5, "mass": 1, "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/generators/0/count: must be a whole number, got 2.5"},
+        bad_case{"too_many_bodies",
+                 R"({"dt": 0.1, "generators": [{"count": 20000000, "mass": 1, "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/generators/0/count: must be between 0 and 10000000"},
+        bad_case{"inverted_region",
+                 R"({"dt": 0.1, "generators": [{"count": 2, "mass": 1, "region": {"min": [0,0,0], "max": [1,-1,1]}}]})",
+                 "/generators/0/region/max: must be >= min on every axis", false},
+        bad_case{"bodies_not_array", R"({"dt": 0.1, "bodies": {}})", "/bodies: must be an array"},
+        bad_case{"not_an_object", R"([1, 2])", "/: must be an object"}),
+    [](auto const& p) { return std::string(p.param.what); });
+
+TEST(SceneFiles, MissingFileIsNamed)
+{
+    try {
+        load_scene("no/such/scene.json");
+        FAIL() << "loaded a missing file";
+    } catch (scene_error const& e) {
+        EXPECT_NE(std::string(e.what()).find("no/such/scene.json: cannot open"), std::string::npos)
+            << e.what();
+    }
+}
+
+constexpr char const* small_scene = R"({
+  "dt": 0.01,
+  "integrator": "explicit_euler",
+  "forces": {"gravity": {"G": 1}},
+  "generators": [{"count": 10, "seed": 4, "mass": 1, "radius": 0.1, "max_speed": 2,
+                  "region": {"min": [-1, -2, -3], "max": [1, 2, 3]}}]
+})";
+
+TEST(SceneOverrides, TakeEffect)
+{
+    std::vector<std::string> const overrides{"integrator=rk4", "dt=0.001", "generators.0.count=25",
+                                             "forces.gravity.softening=0.5", "substeps=3",
+                                             "name=\"renamed\""};
+    scene const s = parse_scene(small_scene, "test.json", overrides);
+    EXPECT_EQ(s.integrator, physics::integrator_kind::rk4);
+    EXPECT_EQ(s.dt, 0.001);
+    EXPECT_EQ(s.substeps, 3);
+    EXPECT_EQ(s.body_count(), 25U);
+    ASSERT_TRUE(s.forces.gravity);
+    EXPECT_EQ(s.forces.gravity->softening, 0.5);
+    EXPECT_EQ(s.forces.gravity->G, 1.0);
+    EXPECT_EQ(s.name, "renamed");
+}
+
+TEST(SceneOverrides, CanNameANewForce)
+{
+    scene const s = parse_scene(small_scene, "test.json", std::vector<std::string>{"forces.coulomb.k=2"});
+    ASSERT_TRUE(s.forces.coulomb);
+    EXPECT_EQ(s.forces.coulomb->k, 2.0);
+}
+
+TEST(SceneOverrides, BadOverridesAreRefusedClearly)
+{
+    EXPECT_NE(error_of(small_scene, {"dt"}).find("--set dt: expected PATH=VALUE"), std::string::npos);
+    EXPECT_NE(error_of(small_scene, {"generators.3.count=1"}).find("index 3 is out of range"),
+              std::string::npos);
+    EXPECT_NE(error_of(small_scene, {"dt=-1"}).find("(with --set overrides): /dt: must be > 0"),
+              std::string::npos)
+        << error_of(small_scene, {"dt=-1"});
+    EXPECT_NE(error_of(small_scene, {"integrator=rk5"}).find("unknown integrator 'rk5'"),
+              std::string::npos);
+    EXPECT_NE(error_of(small_scene, {"dtt=1"}).find("/dtt: unknown field"), std::string::npos);
+}
+
+TEST(SceneGenerators, AreSeededAndStayInsideTheirLimits)
+{
+    scene const s = parse_scene(small_scene, "test.json");
+    physics::world const a = build_world(s);
+    physics::world const b = build_world(s);
+    ASSERT_EQ(a.bodies().size(), 10U);
+    for (std::size_t i = 0; i < a.bodies().size(); ++i) {
+        physics::vec3 const x = a.bodies().positions()[i];
+        EXPECT_TRUE((x.array() >= physics::vec3(-1, -2, -3).array()).all()) << x.transpose();
+        EXPECT_TRUE((x.array() <= physics::vec3(1, 2, 3).array()).all()) << x.transpose();
+        EXPECT_LE(a.bodies().velocities()[i].norm(), 2.0);
+        EXPECT_EQ(a.bodies().radii()[i], 0.1);
+        EXPECT_EQ(x, b.bodies().positions()[i]); // same seed, same bodies
+    }
+    scene const other = parse_scene(small_scene, "test.json", std::vector<std::string>{"generators.0.seed=5"});
+    EXPECT_NE(build_world(other).bodies().positions()[0], a.bodies().positions()[0]);
+}
+
+TEST(SceneGenerators, MassFromDensity)
+{
+    scene const s = parse_scene(
+        R"({"dt": 1, "generators": [{"count": 1, "density": 1000, "radius": 0.1, "region": {"min": [0,0,0], "max": [0,0,0]}}]})",
+        "test.json");
+    EXPECT_DOUBLE_EQ(build_world(s).bodies().masses()[0], physics::mass_from_density(1000, 0.1));
+}
+
+TEST(SceneForces, OnlyNamedModelsAreBuilt)
+{
+    auto const none = build_world(parse_scene(R"({"dt": 1})", "test.json"));
+    EXPECT_TRUE(none.forces().empty());
+    auto const two = build_world(parse_scene(
+        R"({"dt": 1, "forces": {"coulomb": {}, "uniform_field": {}}})", "test.json"));
+    ASSERT_EQ(two.forces().size(), 2U);
+    EXPECT_EQ(two.forces()[0]->name(), "uniform_field");
+    EXPECT_EQ(two.forces()[1]->name(), "coulomb");
+}
+
+TEST(SceneBodies, DefaultsAndStaticBodies)
+{
+    scene const s = parse_scene(
+        R"({"dt": 1, "bodies": [{"position": [1,2,3], "mass": 2}, {"position": [0,0,0], "static": true}]})",
+        "test.json");
+    ASSERT_EQ(s.bodies.size(), 2U);
+    EXPECT_EQ(s.bodies[0].velocity, physics::vec3::Zero());
+    EXPECT_EQ(s.bodies[0].radius, 0.0);
+    EXPECT_EQ(s.bodies[0].charge, 0.0);
+    EXPECT_TRUE(s.bodies[1].is_static);
+    EXPECT_EQ(s.bodies[1].mass, 0.0);
+    EXPECT_EQ(s.integrator, physics::integrator_kind::velocity_verlet);
+}
+
+} // namespace
+} // namespace kugel::scene
