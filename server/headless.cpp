@@ -1,0 +1,87 @@
+#include "headless.hpp"
+
+#include "physics/diagnostics.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <optional>
+#include <stdexcept>
+
+namespace kugel::server {
+
+namespace {
+
+nlohmann::ordered_json to_json(physics::vec3 const& v) { return {v.x(), v.y(), v.z()}; }
+
+/// (E_final − E_initial) / scale, where scale = |K₀| + |U₀| (the size of the energies that
+/// were exchanged), which is zero only when nothing moves and nothing attracts; then the
+/// drift is reported as 0 if the energy is still 0 and as the absolute change otherwise.
+double relative_drift(physics::diagnostics const& initial, physics::diagnostics const& final)
+{
+    double const scale = std::abs(initial.kinetic) + std::abs(initial.potential);
+    double const change = final.total - initial.total;
+    return scale > 0.0 ? change / scale : change;
+}
+
+} // namespace
+
+nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps)
+{
+    physics::world world = scene::build_world(s);
+    auto const initial = physics::measure(world);
+    auto const& integrator = physics::info(s.integrator);
+
+    nlohmann::ordered_json summary;
+    summary["scene"] = s.name;
+    summary["bodies"] = world.bodies().size();
+    summary["steps"] = steps;
+    summary["dt"] = s.dt;
+    summary["substeps"] = s.substeps;
+    summary["integrator"] = integrator.name;
+    summary["integrator_order"] = integrator.order;
+    summary["integrator_exact"] =
+        s.integrator == physics::integrator_kind::exact_constant_force && world.forces_are_constant();
+    nlohmann::ordered_json forces = nlohmann::json::array();
+    for (auto const& model : world.forces())
+        forces.push_back(model->name());
+    summary["forces"] = forces;
+
+    std::uint64_t completed = 0;
+    auto const started = std::chrono::steady_clock::now();
+    try {
+        for (; completed < steps; ++completed)
+            world.step(s.dt);
+    } catch (physics::singular_force_error const& e) {
+        summary["error"] = e.what();
+    }
+    auto const elapsed = std::chrono::duration<double, std::milli>(
+        std::chrono::steady_clock::now() - started);
+
+    // A run stopped by a singular force may end where the potential is singular too: then the
+    // energies are null (JSON has no infinity) and the motion is still reported.
+    auto const motion = physics::measure_motion(world);
+    std::optional<physics::diagnostics> final;
+    try {
+        final = physics::measure(world);
+    } catch (physics::singular_force_error const&) {
+    }
+    summary["steps_completed"] = completed;
+    summary["time"] = world.time();
+    summary["wall_ms"] = elapsed.count();
+    summary["wall_ms_per_step"] = completed > 0 ? elapsed.count() / static_cast<double>(completed) : 0.0;
+    summary["force_evaluations"] = world.force_evaluations();
+    summary["energy_initial"] = initial.total;
+    summary["energy_final"] = final ? nlohmann::ordered_json(final->total) : nlohmann::ordered_json();
+    summary["energy_rel_drift"] =
+        final ? nlohmann::ordered_json(relative_drift(initial, *final)) : nlohmann::ordered_json();
+    summary["kinetic_final"] = motion.kinetic;
+    summary["potential_final"] = final ? nlohmann::ordered_json(final->potential) : nlohmann::ordered_json();
+    summary["momentum_initial"] = to_json(initial.momentum);
+    summary["momentum_final"] = to_json(motion.momentum);
+    summary["angular_momentum_initial"] = to_json(initial.angular_momentum);
+    summary["angular_momentum_final"] = to_json(motion.angular_momentum);
+    summary["centre_of_mass_final"] = to_json(motion.centre_of_mass);
+    return summary;
+}
+
+} // namespace kugel::server

@@ -1,0 +1,114 @@
+#include "headless.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <memory>
+#include <string>
+
+namespace kugel::server {
+namespace {
+
+std::filesystem::path const source_dir = KUGEL_SOURCE_DIR;
+
+struct process_result
+{
+    int exit_code;
+    std::string out;
+};
+
+/// Runs kugel-server with arguments, capturing stdout (stderr, the log, is discarded).
+process_result run_server(std::string const& arguments)
+{
+    std::string const command = std::string(KUGEL_SERVER_EXE) + " " + arguments + " 2>/dev/null";
+    std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
+    std::string out;
+    std::array<char, 4096> buffer{};
+    while (auto n = std::fread(buffer.data(), 1, buffer.size(), pipe.get()))
+        out.append(buffer.data(), n);
+    int const status = pclose(pipe.release());
+    return {WEXITSTATUS(status), out};
+}
+
+std::string scene(char const* name) { return (source_dir / "scenes" / name).string(); }
+
+TEST(HeadlessCommand, KeplerPrintsOneJsonSummary)
+{
+    auto const r = run_server("--scene " + scene("kepler.json") + " --headless --steps 10000");
+    ASSERT_EQ(r.exit_code, 0) << r.out;
+    // exactly one JSON object, one line
+    EXPECT_EQ(r.out.find('\n'), r.out.size() - 1);
+    auto const summary = nlohmann::json::parse(r.out);
+    for (char const* key : {"scene", "bodies", "steps", "dt", "integrator", "wall_ms_per_step",
+                            "energy_initial", "energy_final", "energy_rel_drift",
+                            "momentum_initial", "momentum_final"})
+        EXPECT_TRUE(summary.contains(key)) << key;
+    EXPECT_EQ(summary["scene"], "kepler");
+    EXPECT_EQ(summary["bodies"], 2);
+    EXPECT_EQ(summary["steps"], 10000);
+    EXPECT_EQ(summary["integrator"], "velocity_verlet");
+    // Two-body orbit, E = −G·m₁m₂/(2a) = −0.05; Verlet at ~6,000 steps per orbit keeps
+    // energy to ~1e-6 relative (its error is O(h²) and bounded).
+    EXPECT_NEAR(summary["energy_initial"].get<double>(), -0.05, 1e-12);
+    EXPECT_LT(std::abs(summary["energy_rel_drift"].get<double>()), 1e-5);
+    EXPECT_NEAR(summary["time"].get<double>(), 10.0, 1e-9);
+}
+
+TEST(HeadlessCommand, SetOverridesTakeEffect)
+{
+    auto const r = run_server("--scene " + scene("kepler.json") +
+                              " --headless --steps 100 --set integrator=rk4 --set dt=0.002");
+    ASSERT_EQ(r.exit_code, 0);
+    auto const summary = nlohmann::json::parse(r.out);
+    EXPECT_EQ(summary["integrator"], "rk4");
+    EXPECT_EQ(summary["dt"], 0.002);
+    EXPECT_EQ(summary["force_evaluations"], 400);
+    EXPECT_NEAR(summary["time"].get<double>(), 0.2, 1e-12);
+}
+
+TEST(HeadlessCommand, BadSceneExitsNonZeroWithNoSummary)
+{
+    auto const r = run_server("--scene " + scene("kepler.json") + " --headless --set integrator=rk5");
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_TRUE(r.out.empty());
+}
+
+TEST(HeadlessRun, ProjectileWithTheExactIntegratorIsExact)
+{
+    auto s = scene::load_scene(scene("projectile.json"));
+    auto const summary = run_headless(s, 120);
+    EXPECT_TRUE(summary["integrator_exact"].get<bool>());
+    // Energy is exactly conserved by the parabola; rounding over 120 steps stays ~1e-14.
+    EXPECT_LT(std::abs(summary["energy_rel_drift"].get<double>()), 1e-12);
+}
+
+TEST(HeadlessRun, SingularForceStopsTheRunAndIsReported)
+{
+    // G = 1e-300 leaves the straight-line motion exactly unchanged (the velocity change is far
+    // below one ulp), and ±0.5 m at ∓1 m/s with dt = 1/8 s are exact in binary: after four
+    // steps both bodies sit at exactly 0, and the fifth step's force would divide by zero.
+    auto const s = scene::parse_scene(
+        R"({"name": "crash", "dt": 0.125, "integrator": "explicit_euler",
+            "forces": {"gravity": {"G": 1e-300}},
+            "bodies": [{"position": [-0.5,0,0], "velocity": [1,0,0], "mass": 1},
+                       {"position": [0.5,0,0], "velocity": [-1,0,0], "mass": 1}]})",
+        "crash.json");
+    auto const summary = run_headless(s, 10);
+    ASSERT_TRUE(summary.contains("error")) << summary.dump();
+    EXPECT_NE(summary["error"].get<std::string>().find("softening"), std::string::npos);
+    EXPECT_EQ(summary["steps_completed"], 4);
+    EXPECT_EQ(summary["time"], 0.5);
+}
+
+TEST(HeadlessCommand, SingularSceneExitsNonZero)
+{
+    auto const r = run_server("--scene " + scene("kepler.json") +
+                              " --headless --set bodies.1.position=[-0.045454545454545456,0,0]");
+    EXPECT_EQ(r.exit_code, 1);
+}
+
+} // namespace
+} // namespace kugel::server
