@@ -13,7 +13,7 @@ using namespace kugel::physics;
 
 world gravity_world(integrator_kind kind, int n)
 {
-    world w({kind, 1});
+    world w({.integrator = kind, .substeps = 1});
     w.add_force(std::make_unique<newtonian_gravity>(1.0, 0.01));
     std::mt19937_64 rng(1);
     std::uniform_real_distribution<double> u(-1.0, 1.0);

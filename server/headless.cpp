@@ -45,6 +45,9 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps)
     for (auto const& model : world.forces())
         forces.push_back(model->name());
     summary["forces"] = forces;
+    summary["collision_mode"] = physics::name(s.collisions.mode);
+    if (s.collisions.mode != physics::collision_mode::off)
+        summary["broadphase"] = physics::name(s.collisions.broadphase);
 
     std::uint64_t completed = 0;
     auto const started = std::chrono::steady_clock::now();
@@ -81,6 +84,16 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps)
     summary["angular_momentum_initial"] = to_json(initial.angular_momentum);
     summary["angular_momentum_final"] = to_json(motion.angular_momentum);
     summary["centre_of_mass_final"] = to_json(motion.centre_of_mass);
+    auto const& contacts = world.collisions();
+    summary["collisions"] = contacts.contacts();
+    summary["sphere_collisions"] = contacts.sphere_contacts;
+    summary["wall_collisions"] = contacts.wall_contacts;
+    summary["obstacle_collisions"] = contacts.obstacle_contacts;
+    summary["events_capped"] = contacts.capped_steps;
+    summary["escaped"] = world.escaped();
+    summary["max_overlap"] = world.max_overlap();
+    auto const bounds = scene::scene_bounds(s, world);
+    summary["bounds"] = {{"centre", to_json(bounds.centre)}, {"radius", bounds.radius}};
     return summary;
 }
 

@@ -79,13 +79,73 @@ void world::integrate(double h)
     advance(settings_.integrator, x, v, h, a, workspace_);
 }
 
+namespace {
+
+void check_response(double damping, double friction)
+{
+    if (!(damping >= 0.0 && damping <= 1.0))
+        throw std::invalid_argument("damping must be in [0, 1]");
+    if (!(friction >= 0.0 && friction <= 1.0))
+        throw std::invalid_argument("friction must be in [0, 1]");
+}
+
+} // namespace
+
+void world::add_wall(wall const& w)
+{
+    check_response(w.damping, w.friction);
+    walls_.push_back({make_plane(w.surface.normal, w.surface.offset), w.damping, w.friction});
+}
+
+void world::add_obstacle(obstacle const& o)
+{
+    check_response(o.damping, o.friction);
+    obstacles_.push_back(o);
+}
+
+double world::max_overlap() const
+{
+    return physics::max_overlap(walls_, obstacles_, bodies_.positions(), bodies_.radii(),
+                                collision_workspace_);
+}
+
+std::size_t world::escaped() const
+{
+    std::size_t count = 0;
+    auto const x = bodies_.positions();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (bodies_.radii()[i] <= 0.0 || bodies_.inverse_masses()[i] == 0.0)
+            continue;
+        for (wall const& w : walls_) {
+            if (w.surface.normal.dot(x[i]) < w.surface.offset) {
+                ++count;
+                break;
+            }
+        }
+    }
+    return count;
+}
+
 void world::step(double dt)
 {
     if (!std::isfinite(dt) || dt < 0.0)
         throw std::invalid_argument("step dt must be finite and >= 0");
     double const h = dt / settings_.substeps;
-    for (int substep = 0; substep < settings_.substeps; ++substep)
-        integrate(h); // collisions join here, per substep
+    bool const colliding = settings_.collisions.mode != collision_mode::off && h > 0.0;
+    for (int substep = 0; substep < settings_.substeps; ++substep) {
+        if (!colliding) {
+            integrate(h);
+            continue;
+        }
+        step_start_x_.assign(bodies_.positions().begin(), bodies_.positions().end());
+        step_start_v_.assign(bodies_.velocities().begin(), bodies_.velocities().end());
+        integrate(h);
+        resolve_collisions(settings_.collisions, walls_, obstacles_,
+                           {bodies_.positions(), bodies_.velocities(), step_start_x_,
+                            step_start_v_, bodies_.inverse_masses(), bodies_.radii()},
+                           h, collision_workspace_, collision_stats_);
+        workspace_.invalidate(); // contacts may have moved bodies
+    }
     // Compensated (Kahan) sum: after 10⁶ steps of 1/60 s the clock is still exact to an ulp.
     double const increment = dt - time_compensation_;
     double const sum = time_ + increment;

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "body_storage.hpp"
+#include "collisions.hpp"
 #include "forces.hpp"
 #include "integrators.hpp"
 
@@ -14,6 +15,7 @@ struct world_settings
 {
     integrator_kind integrator = integrator_kind::velocity_verlet;
     int substeps = 1; ///< >= 1: step(dt) runs this many integrator steps of dt/substeps
+    collision_settings collisions;
 };
 
 /// The simulated world: bodies, the force models its scene named, and the integrator.
@@ -34,6 +36,11 @@ public:
 
     void add_force(std::unique_ptr<force_model> model);
 
+    /// Static geometry that spheres collide with (when collisions are on). Throws
+    /// std::invalid_argument for damping or friction outside [0, 1].
+    void add_wall(wall const& w);
+    void add_obstacle(obstacle const& o);
+
     /// Advances the world by dt seconds (dt finite and >= 0, else std::invalid_argument).
     /// Throws singular_force_error when a force is singular; the world is then unchanged.
     void step(double dt);
@@ -43,6 +50,14 @@ public:
 
     body_storage const& bodies() const { return bodies_; }
     std::span<std::unique_ptr<force_model> const> forces() const { return forces_; }
+    std::span<wall const> walls() const { return walls_; }
+    std::span<obstacle const> obstacles() const { return obstacles_; }
+    collision_stats const& collisions() const { return collision_stats_; }
+
+    /// The deepest overlap left between spheres, or a sphere and a wall or box (m).
+    double max_overlap() const;
+    /// Dynamic spheres whose centre is behind a wall: they got out.
+    std::size_t escaped() const;
     world_settings const& settings() const { return settings_; }
 
     double time() const { return time_; }                ///< s since the start
@@ -58,7 +73,12 @@ private:
     world_settings settings_;
     body_storage bodies_;
     std::vector<std::unique_ptr<force_model>> forces_;
+    std::vector<wall> walls_;
+    std::vector<obstacle> obstacles_;
     integrator_workspace workspace_;
+    mutable collision_workspace collision_workspace_;
+    collision_stats collision_stats_;
+    std::vector<vec3> step_start_x_, step_start_v_;
     double time_ = 0.0;
     double time_compensation_ = 0.0; ///< rounding lost from time_, fed back into the next sum
     std::uint64_t steps_ = 0;

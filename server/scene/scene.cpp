@@ -5,9 +5,12 @@
 #include <nlohmann/json.hpp>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <fstream>
 #include <initializer_list>
+#include <limits>
+#include <numbers>
 #include <random>
 #include <sstream>
 
@@ -191,8 +194,16 @@ physics::body_desc read_body(json const& value, location const& at)
 body_generator read_generator(json const& value, location const& at)
 {
     object(value, at,
-           {"count", "seed", "region", "max_speed", "radius", "mass", "density", "charge"});
+           {"count", "seed", "placement", "region", "max_speed", "radius", "mass", "density",
+            "charge"});
     body_generator g;
+    if (auto const* where = find(value, "placement")) {
+        std::string const name = text(*where, at / "placement");
+        if (name == "lattice")
+            g.where = placement::lattice;
+        else if (name != "random")
+            (at / "placement").fail("unknown placement '" + name + "' (known: random, lattice)");
+    }
     g.count = whole_number(required(value, "count", at), at / "count", 0, max_scene_bodies);
     g.seed = optional_field(value, "seed", at, std::uint64_t{1}, [](json const& v, location const& l) {
         return whole_number(v, l, 0, std::uint64_t{1} << 53U);
@@ -212,6 +223,155 @@ body_generator read_generator(json const& value, location const& at)
     g.charge = optional_field(value, "charge", at, 0.0, number);
     g.mass = read_mass(value, at, g.radius, false);
     return g;
+}
+
+/// Cells per axis of the lattice that places `count` bodies in the region, as near to cubes
+/// as the region allows: the largest spacing s such that the cells of size s fit `count`.
+std::array<std::uint64_t, 3> lattice_cells(body_generator const& g, double& spacing)
+{
+    physics::vec3 const size = g.region.max - g.region.min;
+    double const volume = std::max(size.prod(), 1e-300);
+    spacing = std::cbrt(volume / static_cast<double>(std::max<std::uint64_t>(g.count, 1)));
+    for (int attempt = 0; attempt < 10000; ++attempt) {
+        std::array<std::uint64_t, 3> cells{};
+        std::uint64_t total = 1;
+        for (int axis = 0; axis < 3; ++axis) {
+            cells[static_cast<std::size_t>(axis)] =
+                std::max<std::uint64_t>(1, static_cast<std::uint64_t>(size[axis] / spacing));
+            total *= cells[static_cast<std::size_t>(axis)];
+        }
+        if (total >= g.count)
+            return cells;
+        spacing *= 0.99;
+    }
+    return {g.count, 1, 1};
+}
+
+void check_lattice_fits(body_generator const& g, location const& at)
+{
+    if (g.where != placement::lattice || g.count < 2)
+        return;
+    double spacing = 0.0;
+    auto const cells = lattice_cells(g, spacing);
+    physics::vec3 const size = g.region.max - g.region.min;
+    double gap = std::numeric_limits<double>::infinity();
+    for (std::size_t axis = 0; axis < 3; ++axis)
+        if (cells[axis] > 1)
+            gap = std::min(gap, size[static_cast<int>(axis)] / static_cast<double>(cells[axis]));
+    if (gap < 2.0 * g.radius)
+        at.fail("a lattice of " + std::to_string(g.count) + " spheres of radius " + format(g.radius) +
+                " does not fit in the region without overlaps (spacing " + format(gap) +
+                " < diameter); enlarge the region or lower the count");
+}
+
+double unit_interval(json const& value, location const& at)
+{
+    double const x = number(value, at);
+    if (x < 0.0 || x > 1.0)
+        at.fail("must be between 0 and 1, got " + format(x));
+    return x;
+}
+
+physics::wall read_wall(json const& value, location const& at)
+{
+    object(value, at, {"normal", "offset", "damping", "friction"});
+    physics::vec3 const normal = vector3(required(value, "normal", at), at / "normal");
+    if (normal.isZero(0.0))
+        (at / "normal").fail("must not be zero");
+    double const offset = number(required(value, "offset", at), at / "offset");
+    return {physics::make_plane(normal, offset), optional_field(value, "damping", at, 0.0, unit_interval),
+            optional_field(value, "friction", at, 0.0, unit_interval)};
+}
+
+/// `box`: six walls around a region, normals pointing in.
+std::vector<physics::wall> read_box(json const& value, location const& at, physics::aabb& region)
+{
+    object(value, at, {"min", "max", "damping", "friction"});
+    region.min = vector3(required(value, "min", at), at / "min");
+    region.max = vector3(required(value, "max", at), at / "max");
+    if (!(region.min.array() < region.max.array()).all())
+        (at / "max").fail("must be > min on every axis");
+    double const damping = optional_field(value, "damping", at, 0.0, unit_interval);
+    double const friction = optional_field(value, "friction", at, 0.0, unit_interval);
+    std::vector<physics::wall> walls;
+    for (int axis = 0; axis < 3; ++axis) {
+        physics::vec3 n = physics::vec3::Zero();
+        n[axis] = 1.0;
+        walls.push_back({physics::make_plane(n, region.min[axis]), damping, friction});
+        walls.push_back({physics::make_plane(-n, -region.max[axis]), damping, friction});
+    }
+    return walls;
+}
+
+obstacle_settings read_obstacle(json const& value, location const& at)
+{
+    object(value, at, {"centre", "half_extents", "rotation", "points", "damping", "friction"});
+    obstacle_settings o;
+    o.damping = optional_field(value, "damping", at, 0.0, unit_interval);
+    o.friction = optional_field(value, "friction", at, 0.0, unit_interval);
+    if (auto const* points = find(value, "points")) {
+        for (char const* key : {"centre", "half_extents", "rotation"})
+            if (find(value, key))
+                (at / key).fail("give either points or centre/half_extents/rotation, not both");
+        if (!points->is_array() || points->empty())
+            (at / "points").fail("must be a non-empty array of [x, y, z] points");
+        std::vector<physics::vec3> cloud;
+        for (std::size_t i = 0; i < points->size(); ++i)
+            cloud.push_back(vector3((*points)[i], at / "points" / i));
+        o.box = physics::obb_of_points(cloud);
+        return o;
+    }
+    physics::vec3 const centre = vector3(required(value, "centre", at), at / "centre");
+    physics::vec3 const half = vector3(required(value, "half_extents", at), at / "half_extents");
+    if (!(half.array() >= 0.0).all())
+        (at / "half_extents").fail("must be >= 0 on every axis");
+    Eigen::Matrix3d rotation = Eigen::Matrix3d::Identity();
+    if (auto const* r = find(value, "rotation")) {
+        location const r_at = at / "rotation";
+        object(*r, r_at, {"axis", "degrees"});
+        physics::vec3 const axis = vector3(required(*r, "axis", r_at), r_at / "axis");
+        if (axis.isZero(0.0))
+            (r_at / "axis").fail("must not be zero");
+        double const degrees = number(required(*r, "degrees", r_at), r_at / "degrees");
+        rotation = Eigen::AngleAxisd(degrees * std::numbers::pi / 180.0, axis.normalized())
+                       .toRotationMatrix();
+    }
+    o.box = physics::obb_from_box(centre, half, rotation);
+    return o;
+}
+
+physics::collision_settings read_collisions(json const& value, location const& at)
+{
+    object(value, at,
+           {"mode", "broadphase", "restitution", "rest_speed", "position_iterations",
+            "max_events_per_step"});
+    physics::collision_settings c;
+    c.mode = physics::collision_mode::discrete; // naming collisions turns them on
+    if (auto const* mode = find(value, "mode")) {
+        std::string const name = text(*mode, at / "mode");
+        auto const kind = physics::collision_mode_from_name(name);
+        if (!kind)
+            (at / "mode").fail("unknown collision mode '" + name + "' (known: off, discrete, continuous)");
+        c.mode = *kind;
+    }
+    if (auto const* broadphase = find(value, "broadphase")) {
+        std::string const name = text(*broadphase, at / "broadphase");
+        auto const kind = physics::broadphase_from_name(name);
+        if (!kind)
+            (at / "broadphase")
+                .fail("unknown broadphase '" + name + "' (known: brute_force, sweep_and_prune, grid)");
+        c.broadphase = *kind;
+    }
+    c.restitution = optional_field(value, "restitution", at, c.restitution, unit_interval);
+    if (auto const* rest = find(value, "rest_speed"))
+        c.rest_speed = number_at_least(*rest, at / "rest_speed", 0.0, false);
+    c.position_iterations = static_cast<int>(optional_field(
+        value, "position_iterations", at, std::uint64_t{4},
+        [](json const& v, location const& l) { return whole_number(v, l, 0, 100); }));
+    c.max_events_per_step = optional_field(
+        value, "max_events_per_step", at, c.max_events_per_step,
+        [](json const& v, location const& l) { return whole_number(v, l, 1, std::uint64_t{1} << 40U); });
+    return c;
 }
 
 force_settings read_forces(json const& value, location const& at)
@@ -246,8 +406,8 @@ force_settings read_forces(json const& value, location const& at)
 scene read_scene(json const& doc, location const& at)
 {
     object(doc, at,
-           {"$schema", "name", "description", "dt", "substeps", "integrator", "forces", "bodies",
-            "generators"});
+           {"$schema", "name", "description", "dt", "substeps", "integrator", "forces",
+            "collisions", "walls", "box", "obstacles", "bodies", "generators"});
     scene s;
     s.name = optional_field(doc, "name", at, std::string("unnamed"), text);
     s.description = optional_field(doc, "description", at, std::string(), text);
@@ -269,6 +429,26 @@ scene read_scene(json const& doc, location const& at)
     }
     if (auto const* forces = find(doc, "forces"))
         s.forces = read_forces(*forces, at / "forces");
+    if (auto const* collisions = find(doc, "collisions"))
+        s.collisions = read_collisions(*collisions, at / "collisions");
+    if (auto const* walls = find(doc, "walls")) {
+        if (!walls->is_array())
+            (at / "walls").fail("must be an array of walls, got " + describe(*walls));
+        for (std::size_t i = 0; i < walls->size(); ++i)
+            s.walls.push_back(read_wall((*walls)[i], at / "walls" / i));
+    }
+    if (auto const* box = find(doc, "box")) {
+        physics::aabb region;
+        auto const six = read_box(*box, at / "box", region);
+        s.walls.insert(s.walls.end(), six.begin(), six.end());
+        s.box = region;
+    }
+    if (auto const* obstacles = find(doc, "obstacles")) {
+        if (!obstacles->is_array())
+            (at / "obstacles").fail("must be an array of boxes, got " + describe(*obstacles));
+        for (std::size_t i = 0; i < obstacles->size(); ++i)
+            s.obstacles.push_back(read_obstacle((*obstacles)[i], at / "obstacles" / i));
+    }
     if (auto const* bodies = find(doc, "bodies")) {
         if (!bodies->is_array())
             (at / "bodies").fail("must be an array of bodies, got " + describe(*bodies));
@@ -278,8 +458,11 @@ scene read_scene(json const& doc, location const& at)
     if (auto const* generators = find(doc, "generators")) {
         if (!generators->is_array())
             (at / "generators").fail("must be an array of generators, got " + describe(*generators));
-        for (std::size_t i = 0; i < generators->size(); ++i)
-            s.generators.push_back(read_generator((*generators)[i], at / "generators" / i));
+        for (std::size_t i = 0; i < generators->size(); ++i) {
+            location const g_at = at / "generators" / i;
+            s.generators.push_back(read_generator((*generators)[i], g_at));
+            check_lattice_fits(s.generators.back(), g_at);
+        }
     }
     if (s.body_count() > max_scene_bodies)
         at.fail("creates " + std::to_string(s.body_count()) + " bodies, more than the limit of " +
@@ -380,7 +563,11 @@ scene load_scene(std::filesystem::path const& file, std::span<std::string const>
 
 physics::world build_world(scene const& s)
 {
-    physics::world w({s.integrator, s.substeps});
+    physics::world w({.integrator = s.integrator, .substeps = s.substeps, .collisions = s.collisions});
+    for (auto const& wall : s.walls)
+        w.add_wall(wall);
+    for (auto const& o : s.obstacles)
+        w.add_obstacle({o.box, o.damping, o.friction});
     if (s.forces.uniform_field)
         w.add_force(std::make_unique<physics::uniform_field>(s.forces.uniform_field->g));
     if (s.forces.gravity)
@@ -395,10 +582,23 @@ physics::world build_world(scene const& s)
     for (auto const& g : s.generators) {
         std::mt19937_64 rng(g.seed);
         physics::vec3 const size = g.region.max - g.region.min;
+        double spacing = 0.0;
+        auto const cells = g.where == placement::lattice ? lattice_cells(g, spacing)
+                                                          : std::array<std::uint64_t, 3>{};
         for (std::uint64_t i = 0; i < g.count; ++i) {
             physics::body_desc b;
-            b.position = g.region.min + size.cwiseProduct(physics::vec3(
-                                            unit_random(rng), unit_random(rng), unit_random(rng)));
+            if (g.where == placement::lattice) {
+                std::uint64_t const cell[3] = {i % cells[0], (i / cells[0]) % cells[1],
+                                               i / (cells[0] * cells[1])};
+                for (int axis = 0; axis < 3; ++axis) {
+                    auto const n = static_cast<double>(cells[static_cast<std::size_t>(axis)]);
+                    b.position[axis] = g.region.min[axis] +
+                                       size[axis] * (static_cast<double>(cell[axis]) + 0.5) / n;
+                }
+            } else {
+                b.position = g.region.min + size.cwiseProduct(physics::vec3(
+                                                unit_random(rng), unit_random(rng), unit_random(rng)));
+            }
             physics::vec3 direction;
             do { // uniform in the unit ball, by rejection
                 direction = {2.0 * unit_random(rng) - 1.0, 2.0 * unit_random(rng) - 1.0,
@@ -412,6 +612,30 @@ physics::world build_world(scene const& s)
         }
     }
     return w;
+}
+
+physics::sphere scene_bounds(scene const& s, physics::world const& w)
+{
+    std::vector<physics::vec3> points(w.bodies().positions().begin(), w.bodies().positions().end());
+    double largest_radius = 0.0;
+    for (double r : w.bodies().radii())
+        largest_radius = std::max(largest_radius, r);
+    for (auto const& o : s.obstacles) {
+        for (int corner = 0; corner < 8; ++corner) {
+            physics::vec3 const sign((corner & 1) ? 1.0 : -1.0, (corner & 2) ? 1.0 : -1.0,
+                                     (corner & 4) ? 1.0 : -1.0);
+            points.push_back(o.box.centre + o.box.axes * sign.cwiseProduct(o.box.half_extents));
+        }
+    }
+    if (s.box) {
+        for (int corner = 0; corner < 8; ++corner)
+            points.emplace_back((corner & 1) ? s.box->max.x() : s.box->min.x(),
+                                (corner & 2) ? s.box->max.y() : s.box->min.y(),
+                                (corner & 4) ? s.box->max.z() : s.box->min.z());
+    }
+    physics::sphere bounds = physics::minimum_bounding_sphere(points);
+    bounds.radius += largest_radius;
+    return bounds;
 }
 
 } // namespace kugel::scene

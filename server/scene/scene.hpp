@@ -2,6 +2,8 @@
 
 #include "physics/aabb.hpp"
 #include "physics/body_storage.hpp"
+#include "physics/bounding_sphere.hpp"
+#include "physics/collisions.hpp"
 #include "physics/integrators.hpp"
 #include "physics/world.hpp"
 
@@ -49,17 +51,31 @@ struct force_settings
     std::optional<coulomb_settings> coulomb;
 };
 
-/// N bodies placed uniformly at random in a box, each with a velocity drawn uniformly from
-/// the ball of radius max_speed. Seeded: the same scene always gives the same bodies.
+enum class placement {
+    random,  ///< uniform in the region; spheres may overlap
+    lattice, ///< on a cubic lattice filling the region, no two spheres overlapping
+};
+
+/// N bodies placed in a box, each with a velocity drawn uniformly from the ball of radius
+/// max_speed. Seeded: the same scene always gives the same bodies.
 struct body_generator
 {
     std::uint64_t count = 0;
+    placement where = placement::random;
     std::uint64_t seed = 1;
     physics::aabb region;   ///< m
     double max_speed = 0.0; ///< m/s
     double radius = 0.0;    ///< m
     double mass = 1.0;      ///< kg, from `mass` or from `density`
     double charge = 0.0;    ///< C
+};
+
+/// A static box that spheres collide with: given directly, or fitted to points (PCA).
+struct obstacle_settings
+{
+    physics::obb box;
+    double damping = 0.0;
+    double friction = 0.0;
 };
 
 /// A validated scene: everything a world needs, in engine units.
@@ -71,6 +87,10 @@ struct scene
     int substeps = 1;
     physics::integrator_kind integrator = physics::integrator_kind::velocity_verlet;
     force_settings forces;
+    physics::collision_settings collisions;
+    std::vector<physics::wall> walls; ///< including the six of `box`
+    std::optional<physics::aabb> box; ///< the `box` shortcut's region, when given
+    std::vector<obstacle_settings> obstacles;
     std::vector<physics::body_desc> bodies;
     std::vector<body_generator> generators;
 
@@ -93,5 +113,9 @@ scene load_scene(std::filesystem::path const& file, std::span<std::string const>
 /// Creates the world a scene describes: its settings, force models and bodies, generators
 /// expanded in order after the explicit bodies.
 physics::world build_world(scene const& s);
+
+/// The sphere that holds every body, obstacle and the `box`: what a client frames its
+/// camera on.
+physics::sphere scene_bounds(scene const& s, physics::world const& w);
 
 } // namespace kugel::scene

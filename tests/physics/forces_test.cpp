@@ -194,7 +194,7 @@ TEST(ForceModels, WorldWithGravityAndCoulombConservesMomentum)
 {
     std::mt19937_64 rng(5);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
-    world w({integrator_kind::velocity_verlet, 1});
+    world w({.integrator = integrator_kind::velocity_verlet, .substeps = 1});
     w.add_force(std::make_unique<newtonian_gravity>(1.0, 0.05));
     w.add_force(std::make_unique<coulomb>(0.5, 0.05));
     for (int i = 0; i < 50; ++i)

@@ -26,7 +26,7 @@ struct projectile
 
     world make(integrator_kind kind) const
     {
-        world w({kind, 1});
+        world w({.integrator = kind, .substeps = 1});
         w.add_force(std::make_unique<uniform_field>(g));
         w.add_body({x0, v0, 2.0, 0.0, 0.0, false});
         return w;
@@ -71,7 +71,7 @@ TEST(ExplicitEuler, ParabolaErrorShrinksLinearlyWithDt)
 /// x(t) = (cos t, sin t, 0), period 2π, E = −1/2 per unit mass.
 world circular_orbit(integrator_kind kind)
 {
-    world w({kind, 1});
+    world w({.integrator = kind, .substeps = 1});
     w.add_force(std::make_unique<newtonian_gravity>(1.0, 0.0));
     w.add_body({vec3::Zero(), vec3::Zero(), 1.0, 0.0, 0.0, true});
     w.add_body({vec3(1, 0, 0), vec3(0, 1, 0), 1e-3, 0.0, 0.0, false});

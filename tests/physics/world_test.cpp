@@ -59,13 +59,13 @@ TEST(World, RefusesBadStepsAndZeroStepChangesNothing)
     EXPECT_THROW(w.step(INFINITY), std::invalid_argument);
     w.step(0.0);
     EXPECT_EQ(w.bodies().positions()[0], vec3::Zero());
-    EXPECT_THROW(world({integrator_kind::rk4, 0}), std::invalid_argument);
+    EXPECT_THROW(world({.integrator = integrator_kind::rk4, .substeps = 0}), std::invalid_argument);
 }
 
 TEST(World, SubstepsEqualSmallerSteps)
 {
     auto make = [](int substeps) {
-        world w({integrator_kind::rk4, substeps});
+        world w({.integrator = integrator_kind::rk4, .substeps = substeps});
         w.add_force(std::make_unique<newtonian_gravity>(1.0, 0.0));
         w.add_body(moving({0, 0, 0}, {0, -0.1, 0}, 1.0));
         w.add_body(moving({1, 0, 0}, {0, 1, 0}, 0.1));
@@ -108,7 +108,7 @@ TEST(World, AStepThatFailsChangesNothing)
     for (auto const& entry : integrator_table()) {
         for (int succeeding = 0; succeeding < entry.force_evaluations; ++succeeding) {
             auto make = [&](int calls) {
-                world w({entry.kind, 1});
+                world w({.integrator = entry.kind, .substeps = 1});
                 w.add_force(std::make_unique<failing_force>(calls));
                 w.add_body(moving({1, 0, 0}, {0, 1, 0}));
                 w.add_body(moving({0, 2, 0}, {-1, 0, 0}));
@@ -139,7 +139,7 @@ TEST(World, RemovingABodyInvalidatesCachedForces)
 {
     std::mt19937_64 rng(9);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
-    world a({integrator_kind::velocity_verlet, 1});
+    world a({.integrator = integrator_kind::velocity_verlet, .substeps = 1});
     a.add_force(std::make_unique<newtonian_gravity>(1.0, 0.01));
     std::vector<body_id> ids;
     for (int i = 0; i < 5; ++i)
@@ -148,7 +148,7 @@ TEST(World, RemovingABodyInvalidatesCachedForces)
         a.step(0.01);
     ASSERT_TRUE(a.remove_body(ids[1]));
 
-    world b({integrator_kind::velocity_verlet, 1});
+    world b({.integrator = integrator_kind::velocity_verlet, .substeps = 1});
     b.add_force(std::make_unique<newtonian_gravity>(1.0, 0.01));
     for (std::size_t slot = 0; slot < a.bodies().size(); ++slot)
         b.add_body(a.bodies().describe(slot));
@@ -179,7 +179,7 @@ std::uint64_t state_hash(world const& w)
 
 world fixed_scene()
 {
-    world w({integrator_kind::velocity_verlet, 2});
+    world w({.integrator = integrator_kind::velocity_verlet, .substeps = 2});
     w.add_force(std::make_unique<newtonian_gravity>(1.0, 0.05));
     w.add_force(std::make_unique<coulomb>(0.3, 0.05));
     w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -0.5)));

@@ -152,6 +152,31 @@ INSTANTIATE_TEST_SUITE_P(
                  R"({"dt": 0.1, "generators": [{"count": 2, "mass": 1, "region": {"min": [0,0,0], "max": [1,-1,1]}}]})",
                  "/generators/0/region/max: must be >= min on every axis", false},
         bad_case{"bodies_not_array", R"({"dt": 0.1, "bodies": {}})", "/bodies: must be an array"},
+        bad_case{"unknown_collision_mode", R"({"dt": 0.1, "collisions": {"mode": "sometimes"}})",
+                 "/collisions/mode: unknown collision mode 'sometimes' (known: off, discrete, continuous)"},
+        bad_case{"unknown_broadphase", R"({"dt": 0.1, "collisions": {"broadphase": "octree"}})",
+                 "/collisions/broadphase: unknown broadphase 'octree'"},
+        bad_case{"restitution_above_one", R"({"dt": 0.1, "collisions": {"restitution": 1.5}})",
+                 "/collisions/restitution: must be between 0 and 1, got 1.5"},
+        bad_case{"damping_below_zero",
+                 R"({"dt": 0.1, "walls": [{"normal": [0,0,1], "offset": 0, "damping": -0.1}]})",
+                 "/walls/0/damping: must be between 0 and 1"},
+        bad_case{"zero_wall_normal", R"({"dt": 0.1, "walls": [{"normal": [0,0,0], "offset": 0}]})",
+                 "/walls/0/normal: must not be zero", false},
+        bad_case{"flat_box", R"({"dt": 0.1, "box": {"min": [0,0,0], "max": [1,0,1]}})",
+                 "/box/max: must be > min on every axis", false},
+        bad_case{"obstacle_points_and_centre",
+                 R"({"dt": 0.1, "obstacles": [{"points": [[0,0,0]], "centre": [0,0,0], "half_extents": [1,1,1]}]})",
+                 "/obstacles/0/centre: give either points or centre/half_extents/rotation"},
+        bad_case{"obstacle_negative_extent",
+                 R"({"dt": 0.1, "obstacles": [{"centre": [0,0,0], "half_extents": [1,-1,1]}]})",
+                 "/obstacles/0/half_extents: must be >= 0"},
+        bad_case{"unknown_placement",
+                 R"({"dt": 0.1, "generators": [{"count": 2, "mass": 1, "placement": "spiral", "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/generators/0/placement: unknown placement 'spiral' (known: random, lattice)"},
+        bad_case{"lattice_too_dense",
+                 R"({"dt": 0.1, "generators": [{"count": 1000, "mass": 1, "radius": 0.2, "placement": "lattice", "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/generators/0: a lattice of 1000 spheres of radius 0.2 does not fit", false},
         bad_case{"not_an_object", R"([1, 2])", "/: must be an object"}),
     [](auto const& p) { return std::string(p.param.what); });
 
@@ -259,6 +284,87 @@ TEST(SceneBodies, DefaultsAndStaticBodies)
     EXPECT_TRUE(s.bodies[1].is_static);
     EXPECT_EQ(s.bodies[1].mass, 0.0);
     EXPECT_EQ(s.integrator, physics::integrator_kind::velocity_verlet);
+}
+
+TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
+{
+    scene const s = parse_scene(R"({
+      "dt": 0.01,
+      "collisions": {"mode": "continuous", "broadphase": "sweep_and_prune", "restitution": 0.5,
+                     "rest_speed": 0.02, "max_events_per_step": 99},
+      "box": {"min": [-1, -2, 0], "max": [1, 2, 3], "damping": 0.25, "friction": 0.5},
+      "walls": [{"normal": [0, 0, 2], "offset": 4, "damping": 0.1}],
+      "obstacles": [
+        {"centre": [0, 0, 1], "half_extents": [0.5, 0.25, 0.1], "rotation": {"axis": [0, 0, 1], "degrees": 90}},
+        {"points": [[0,0,0], [2,0,0], [0,1,0], [2,1,0], [0,0,1], [2,0,1], [0,1,1], [2,1,1]]}
+      ]})",
+                                "test.json");
+    physics::world const w = build_world(s);
+    EXPECT_EQ(w.settings().collisions.mode, physics::collision_mode::continuous);
+    EXPECT_EQ(w.settings().collisions.broadphase, physics::broadphase_kind::sweep_and_prune);
+    EXPECT_EQ(w.settings().collisions.restitution, 0.5);
+    EXPECT_EQ(w.settings().collisions.rest_speed, 0.02);
+    EXPECT_EQ(w.settings().collisions.max_events_per_step, 99U);
+    ASSERT_EQ(w.walls().size(), 7U);
+    // the explicit wall, normalised: 2z = 4 is z = 2
+    EXPECT_EQ(w.walls()[0].surface.normal, physics::vec3(0, 0, 1));
+    EXPECT_EQ(w.walls()[0].surface.offset, 2.0);
+    // the box's first wall: x >= -1, normal +x
+    EXPECT_EQ(w.walls()[1].surface.normal, physics::vec3(1, 0, 0));
+    EXPECT_EQ(w.walls()[1].surface.offset, -1.0);
+    EXPECT_EQ(w.walls()[1].damping, 0.25);
+    EXPECT_EQ(w.walls()[2].surface.normal, physics::vec3(-1, 0, 0));
+    EXPECT_EQ(w.walls()[2].surface.offset, -1.0);
+    ASSERT_EQ(w.obstacles().size(), 2U);
+    // rotated 90° about z: the box's long axis now lies along y
+    auto const& rotated = w.obstacles()[0].box;
+    EXPECT_NEAR(std::abs(rotated.axes.col(0).dot(physics::vec3::UnitY())), 1.0, 1e-12);
+    // fitted to the corners of [0,2]×[0,1]×[0,1]: centre and half extents recovered
+    auto const& fitted = w.obstacles()[1].box;
+    EXPECT_LE((fitted.centre - physics::vec3(1, 0.5, 0.5)).norm(), 1e-12);
+    EXPECT_NEAR(fitted.half_extents.maxCoeff(), 1.0, 1e-12);
+}
+
+TEST(SceneCollisions, NamingCollisionsTurnsThemOnInDiscreteMode)
+{
+    EXPECT_EQ(parse_scene(R"({"dt": 1, "collisions": {}})", "t.json").collisions.mode,
+              physics::collision_mode::discrete);
+    EXPECT_EQ(parse_scene(R"({"dt": 1})", "t.json").collisions.mode, physics::collision_mode::off);
+}
+
+TEST(SceneGenerators, LatticePlacementNeverOverlaps)
+{
+    scene const s = parse_scene(
+        R"({"dt": 1, "generators": [{"count": 1000, "placement": "lattice", "radius": 0.04, "mass": 1,
+                                      "region": {"min": [0,0,0], "max": [1,2,1]}}]})",
+        "test.json");
+    physics::world const w = build_world(s);
+    ASSERT_EQ(w.bodies().size(), 1000U);
+    EXPECT_EQ(w.max_overlap(), 0.0);
+    for (auto const& x : w.bodies().positions())
+        EXPECT_TRUE((x.array() >= 0.0).all() && x.y() <= 2.0 && x.x() <= 1.0 && x.z() <= 1.0);
+}
+
+TEST(SceneBounds, HoldBodiesObstaclesAndTheBox)
+{
+    scene const s = parse_scene(R"({
+      "dt": 0.01,
+      "box": {"min": [-1, -1, 0], "max": [1, 1, 2]},
+      "obstacles": [{"centre": [5, 0, 0], "half_extents": [1, 1, 1]}],
+      "bodies": [{"position": [0, 0, 1], "radius": 0.5, "mass": 1},
+                 {"position": [-3, 0, 0], "radius": 0.25, "mass": 1}]})",
+                                "test.json");
+    physics::world const w = build_world(s);
+    physics::sphere const b = scene_bounds(s, w);
+    // Everything inside, to rounding; and no larger than needed by much: the farthest points
+    // are the body at x = −3 (plus its radius, counted as the largest radius 0.5) and the
+    // obstacle's corners at x = 6.
+    for (std::size_t i = 0; i < w.bodies().size(); ++i)
+        EXPECT_LE((w.bodies().positions()[i] - b.centre).norm() + w.bodies().radii()[i],
+                  b.radius * (1 + 1e-12));
+    EXPECT_LE((physics::vec3(6, 1, 1) - b.centre).norm(), b.radius * (1 + 1e-12));
+    EXPECT_LE((physics::vec3(1, 1, 2) - b.centre).norm(), b.radius * (1 + 1e-12));
+    EXPECT_LT(b.radius, 5.5);
 }
 
 } // namespace

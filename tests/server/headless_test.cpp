@@ -69,6 +69,24 @@ TEST(HeadlessCommand, SetOverridesTakeEffect)
     EXPECT_NEAR(summary["time"].get<double>(), 0.2, 1e-12);
 }
 
+// The gas scene, at 1,000 spheres for test time: the summary counts collisions, nothing
+// escapes, and energy is kept to rounding (continuous mode, e = 1, no forces).
+TEST(HeadlessCommand, GasSummaryReportsCollisionsAndNothingEscapes)
+{
+    auto const r = run_server("--scene " + scene("gas.json") +
+                              " --headless --steps 600 --set generators.0.count=1000");
+    ASSERT_EQ(r.exit_code, 0);
+    auto const summary = nlohmann::json::parse(r.out);
+    EXPECT_EQ(summary["bodies"], 1000);
+    EXPECT_EQ(summary["collision_mode"], "continuous");
+    EXPECT_EQ(summary["escaped"], 0);
+    EXPECT_EQ(summary["events_capped"], 0);
+    EXPECT_GT(summary["sphere_collisions"].get<int>(), 100);
+    EXPECT_LE(summary["max_overlap"].get<double>(), 1e-9);
+    EXPECT_LT(std::abs(summary["energy_rel_drift"].get<double>()), 1e-9);
+    EXPECT_GT(summary["bounds"]["radius"].get<double>(), 0.0);
+}
+
 TEST(HeadlessCommand, BadSceneExitsNonZeroWithNoSummary)
 {
     auto const r = run_server("--scene " + scene("kepler.json") + " --headless --set integrator=rk5");

@@ -1,0 +1,64 @@
+// One step of an elastic gas (radius 0.05 m, 10% of the box filled, speeds up to 1 m/s,
+// dt = 1/60 s) in each collision mode: the cost side of the discrete/continuous trade.
+// The accuracy side is in tests/physics/collisions_test.cpp.
+
+#include "physics/world.hpp"
+
+#include <benchmark/benchmark.h>
+
+#include <cmath>
+#include <numbers>
+#include <random>
+
+namespace {
+
+using namespace kugel::physics;
+
+world gas(collision_mode mode, std::int64_t n)
+{
+    world_settings settings;
+    settings.collisions.mode = mode;
+    world w(settings);
+    double const r = 0.05;
+    double const side = std::cbrt(static_cast<double>(n) * 4.0 / 3.0 * std::numbers::pi * r * r * r / 0.1);
+    for (int axis = 0; axis < 3; ++axis) {
+        for (double sign : {1.0, -1.0}) {
+            vec3 normal = vec3::Zero();
+            normal[axis] = sign;
+            w.add_wall({make_plane(normal, -side / 2), 0.0, 0.0});
+        }
+    }
+    auto const per_axis = static_cast<std::int64_t>(std::ceil(std::cbrt(static_cast<double>(n))));
+    double const spacing = side / static_cast<double>(per_axis);
+    std::mt19937_64 rng(1);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (std::int64_t i = 0; i < n; ++i) {
+        vec3 const cell(static_cast<double>(i % per_axis), static_cast<double>((i / per_axis) % per_axis),
+                        static_cast<double>(i / (per_axis * per_axis)));
+        vec3 v(u(rng), u(rng), u(rng));
+        if (v.norm() > 1.0)
+            v.normalize();
+        w.add_body({(cell.array() + 0.5).matrix() * spacing - vec3::Constant(side / 2), v, 0.5, r, 0.0,
+                    false});
+    }
+    return w;
+}
+
+void gas_step(benchmark::State& state, collision_mode mode)
+{
+    world w = gas(mode, state.range(0));
+    w.step(1.0 / 60.0);
+    auto const contacts_before = w.collisions().contacts();
+    for (auto _ : state)
+        w.step(1.0 / 60.0);
+    state.SetItemsProcessed(state.iterations() * state.range(0));
+    state.counters["contacts_per_step"] = benchmark::Counter(
+        static_cast<double>(w.collisions().contacts() - contacts_before) / static_cast<double>(state.iterations()));
+}
+
+BENCHMARK_CAPTURE(gas_step, discrete, collision_mode::discrete)
+    ->RangeMultiplier(10)->Range(1000, 1000000)->Unit(benchmark::kMillisecond);
+BENCHMARK_CAPTURE(gas_step, continuous, collision_mode::continuous)
+    ->RangeMultiplier(10)->Range(1000, 100000)->Unit(benchmark::kMillisecond);
+
+} // namespace

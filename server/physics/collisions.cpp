@@ -1,0 +1,225 @@
+#include "collisions.hpp"
+
+#include "collision_rules.hpp"
+#include "time_of_impact.hpp"
+
+#include <algorithm>
+#include <array>
+#include <limits>
+
+namespace kugel::physics {
+
+void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
+                        std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                        double h, collision_workspace& workspace, collision_stats& stats);
+
+namespace {
+
+constexpr std::array<std::string_view, 3> mode_names{"off", "discrete", "continuous"};
+
+/// Fills workspace.boxes and .members with the boxes of every sphere (radius > 0) at x.
+void sphere_boxes(std::span<vec3 const> x, std::span<double const> radius, collision_workspace& ws)
+{
+    ws.boxes.clear();
+    ws.members.clear();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (radius[i] > 0.0) {
+            ws.boxes.push_back(aabb_of_sphere(x[i], radius[i]));
+            ws.members.push_back(static_cast<std::uint32_t>(i));
+        }
+    }
+}
+
+/// Discrete walls: a sphere found inside a wall at the end of the step is taken back to the
+/// time it crossed, found by the lecture's linear interpolation between tᵢ and tᵢ₊₁, bounces
+/// there, and finishes the step on its new path. Up to four walls per step (a corner).
+void resolve_walls_discrete(collision_settings const& settings, std::span<wall const> walls,
+                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
+                            collision_stats& stats)
+{
+    for (std::size_t i = 0; i < b.x.size(); ++i) {
+        double const r = b.radius[i];
+        if (r <= 0.0 || b.inverse_mass[i] == 0.0)
+            continue;
+        body_path path{b.x0[i], b.v0[i], free_a[i], 0.0};
+        vec3 end = b.x[i];
+        bool bounced = false;
+        for (int bounce = 0; bounce < 4; ++bounce) {
+            wall const* hit = nullptr;
+            double hit_time = std::numeric_limits<double>::infinity();
+            for (wall const& w : walls) {
+                if (w.surface.normal.dot(end) >= w.surface.offset + r)
+                    continue;
+                double const t = std::clamp(
+                    plane_contact_time_linear(w.surface, r, path.x, path.t, end, h), path.t, h);
+                if (t < hit_time) {
+                    hit_time = t;
+                    hit = &w;
+                }
+            }
+            if (!hit)
+                break;
+            path.advance_to(hit_time);
+            if (detail::respond_to_surface(path, hit->surface.normal, hit->surface.offset + r,
+                                           hit->damping, hit->friction, settings, h))
+                ++stats.wall_contacts;
+            end = path.position_at(h);
+            bounced = true;
+        }
+        if (bounced) {
+            b.x[i] = end;
+            b.v[i] = path.velocity_at(h);
+        }
+    }
+}
+
+/// Discrete boxes: a sphere overlapping a box is pushed out along the contact normal and
+/// bounces by the wall rule.
+void resolve_obstacles_discrete(collision_settings const& settings,
+                                std::span<obstacle const> obstacles, collision_bodies const& b,
+                                double h, std::span<vec3 const> free_a, collision_stats& stats)
+{
+    for (obstacle const& o : obstacles) {
+        aabb const bounds = aabb_of(o.box);
+        for (std::size_t i = 0; i < b.x.size(); ++i) {
+            double const r = b.radius[i];
+            if (r <= 0.0 || b.inverse_mass[i] == 0.0 || !overlaps(bounds, aabb_of_sphere(b.x[i], r)))
+                continue;
+            auto const contact = sphere_vs_obb(b.x[i], r, o.box);
+            if (!contact.touching)
+                continue;
+            body_path path{b.x[i] - contact.distance * contact.normal, b.v[i], free_a[i], h};
+            if (detail::respond_to_surface(path, contact.normal, path.x.dot(contact.normal),
+                                           o.damping, o.friction, settings, h))
+                ++stats.obstacle_contacts;
+            b.x[i] = path.x;
+            b.v[i] = path.v;
+        }
+    }
+}
+
+/// Discrete sphere pairs: overlapping pairs at the end of the step exchange momentum along
+/// their normal (restitution e, resting below the threshold), then are separated along the
+/// normal in proportion to their inverse masses, a few passes so stacks settle.
+void resolve_pairs_discrete(collision_settings const& settings, collision_bodies const& b,
+                            double h, std::span<vec3 const> free_a, collision_workspace& ws,
+                            collision_stats& stats)
+{
+    sphere_boxes(b.x, b.radius, ws);
+    find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
+    auto normal_of = [&](std::size_t i, std::size_t j, double& gap) {
+        vec3 const d = b.x[i] - b.x[j];
+        double const distance = d.norm();
+        gap = distance - (b.radius[i] + b.radius[j]);
+        return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
+    };
+    for (box_pair const& p : ws.pairs) {
+        std::size_t const i = ws.members[p.a], j = ws.members[p.b];
+        double gap = 0.0;
+        vec3 const n = normal_of(i, j, gap);
+        if (gap > 0.0)
+            continue;
+        double const closing = (b.v[i] - b.v[j]).dot(n);
+        if (closing >= 0.0)
+            continue;
+        double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
+        double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
+        auto const w = collide_spheres(b.v[i], b.inverse_mass[i], b.v[j], b.inverse_mass[j], n, e);
+        b.v[i] = w.first;
+        b.v[j] = w.second;
+        ++stats.sphere_contacts;
+    }
+    for (int pass = 0; pass < settings.position_iterations; ++pass) {
+        for (box_pair const& p : ws.pairs) {
+            std::size_t const i = ws.members[p.a], j = ws.members[p.b];
+            double const total = b.inverse_mass[i] + b.inverse_mass[j];
+            double gap = 0.0;
+            vec3 const n = normal_of(i, j, gap);
+            if (gap >= 0.0 || total == 0.0)
+                continue;
+            b.x[i] -= (gap * b.inverse_mass[i] / total) * n;
+            b.x[j] += (gap * b.inverse_mass[j] / total) * n;
+        }
+    }
+}
+
+} // namespace
+
+std::optional<collision_mode> collision_mode_from_name(std::string_view name)
+{
+    for (std::size_t i = 0; i < mode_names.size(); ++i)
+        if (mode_names[i] == name)
+            return static_cast<collision_mode>(i);
+    return std::nullopt;
+}
+
+std::string_view name(collision_mode mode) { return mode_names[static_cast<std::size_t>(mode)]; }
+
+void resolve_discrete(collision_settings const& settings, std::span<wall const> walls,
+                      std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                      double h, collision_workspace& workspace, collision_stats& stats)
+{
+    // Each body's acceleration over the step, from free motion alone, before any response.
+    auto& free_a = workspace.free_acceleration;
+    free_a.resize(bodies.x.size());
+    for (std::size_t i = 0; i < bodies.x.size(); ++i)
+        free_a[i] = (bodies.v[i] - bodies.v0[i]) / h;
+    resolve_walls_discrete(settings, walls, bodies, h, free_a, stats);
+    resolve_obstacles_discrete(settings, obstacles, bodies, h, free_a, stats);
+    resolve_pairs_discrete(settings, bodies, h, free_a, workspace, stats);
+}
+
+void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,
+                        std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                        double h, collision_workspace& workspace, collision_stats& stats)
+{
+    if (settings.mode == collision_mode::discrete)
+        resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats);
+    else if (settings.mode == collision_mode::continuous)
+        resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats);
+    if (settings.mode != collision_mode::off)
+        clamp_to_walls(walls, bodies);
+}
+
+void clamp_to_walls(std::span<wall const> walls, collision_bodies const& b)
+{
+    for (wall const& w : walls) {
+        vec3 const& n = w.surface.normal;
+        for (std::size_t i = 0; i < b.x.size(); ++i) {
+            double const r = b.radius[i];
+            if (r <= 0.0 || b.inverse_mass[i] == 0.0)
+                continue;
+            double const depth = w.surface.offset + r - n.dot(b.x[i]);
+            if (depth <= 0.0)
+                continue;
+            b.x[i] += depth * n;
+            double const vn = b.v[i].dot(n);
+            if (vn < 0.0)
+                b.v[i] -= vn * n;
+        }
+    }
+}
+
+double max_overlap(std::span<wall const> walls, std::span<obstacle const> obstacles,
+                   std::span<vec3 const> x, std::span<double const> radius,
+                   collision_workspace& ws)
+{
+    double worst = 0.0;
+    sphere_boxes(x, radius, ws);
+    find_overlapping_pairs(broadphase_kind::uniform_grid, ws.boxes, ws.pairs, ws.broadphase);
+    for (box_pair const& p : ws.pairs) {
+        std::size_t const i = ws.members[p.a], j = ws.members[p.b];
+        worst = std::max(worst, radius[i] + radius[j] - (x[i] - x[j]).norm());
+    }
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (radius[i] <= 0.0)
+            continue;
+        for (wall const& w : walls)
+            worst = std::max(worst, w.surface.offset + radius[i] - w.surface.normal.dot(x[i]));
+        for (obstacle const& o : obstacles)
+            worst = std::max(worst, -sphere_vs_obb(x[i], radius[i], o.box).distance);
+    }
+    return worst;
+}
+
+} // namespace kugel::physics

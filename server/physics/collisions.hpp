@@ -1,0 +1,110 @@
+#pragma once
+
+#include "aabb.hpp"
+#include "body_path.hpp"
+#include "broadphase.hpp"
+#include "obb.hpp"
+#include "plane.hpp"
+#include "vec.hpp"
+
+#include <cstdint>
+#include <optional>
+#include <span>
+#include <string_view>
+#include <vector>
+
+namespace kugel::physics {
+
+/// A static wall: the lecture's plane {x : n·x = d} with outer unit normal n, and the
+/// response parameters of the lecture's w = (1 − μ)·v_t − (1 − α)·v_n.
+struct wall
+{
+    plane surface;        ///< unit outer normal, pointing to where the spheres are
+    double damping = 0.0;  ///< α in [0, 1]: 0 reflects the normal speed fully, 1 stops it
+    double friction = 0.0; ///< μ in [0, 1]: the share of tangential speed lost per contact
+};
+
+/// A static box that spheres bounce off, with the same response rule as a wall.
+struct obstacle
+{
+    obb box;
+    double damping = 0.0;  ///< α in [0, 1]
+    double friction = 0.0; ///< μ in [0, 1]
+};
+
+enum class collision_mode {
+    off,        ///< bodies pass through each other and through walls
+    discrete,   ///< overlaps at the end of the step: respond, then separate
+    continuous, ///< contacts in time order inside the step: nothing tunnels
+};
+
+std::optional<collision_mode> collision_mode_from_name(std::string_view name);
+std::string_view name(collision_mode mode);
+
+struct collision_settings
+{
+    collision_mode mode = collision_mode::off;
+    broadphase_kind broadphase = broadphase_kind::uniform_grid;
+    double restitution = 1.0; ///< e in [0, 1] for sphere–sphere contacts; 1 is elastic
+    /// m/s: a contact whose outgoing normal speed is below this comes to rest (speed 0) instead
+    /// of bouncing again. Unset: twice the normal speed the body's own acceleration adds in
+    /// one step (2·|Δv·n|), which is zero without forces, so a gas stays exactly elastic.
+    std::optional<double> rest_speed;
+    int position_iterations = 4; ///< discrete mode: separation passes over overlapping pairs
+    /// Continuous mode: events handled per step at most; past it the step finishes in
+    /// discrete mode and the step is counted in collision_stats::capped_steps.
+    std::uint64_t max_events_per_step = 1'000'000;
+};
+
+/// Counters since the world was made.
+struct collision_stats
+{
+    std::uint64_t sphere_contacts = 0;   ///< sphere–sphere responses
+    std::uint64_t wall_contacts = 0;     ///< sphere–wall responses
+    std::uint64_t obstacle_contacts = 0; ///< sphere–box responses
+    std::uint64_t capped_steps = 0;      ///< continuous steps that hit max_events_per_step
+    std::uint64_t events = 0;            ///< continuous-mode events processed
+
+    std::uint64_t contacts() const { return sphere_contacts + wall_contacts + obstacle_contacts; }
+};
+
+/// The bodies' state around one collision step: where they were at its start (x0, v0) and
+/// where free motion took them (x, v, updated in place by the resolution).
+struct collision_bodies
+{
+    std::span<vec3> x;
+    std::span<vec3> v;
+    std::span<vec3 const> x0;
+    std::span<vec3 const> v0;
+    std::span<double const> inverse_mass;
+    std::span<double const> radius;
+};
+
+/// Scratch space reused across steps.
+class collision_workspace
+{
+public:
+    broadphase_workspace broadphase;
+    std::vector<aabb> boxes;
+    std::vector<std::uint32_t> members; ///< body slot of each box
+    std::vector<box_pair> pairs;
+    std::vector<body_path> paths;       ///< continuous mode: each body's path in this step
+    std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
+    std::vector<std::uint32_t> version; ///< continuous mode: bumped when a path changes
+};
+
+/// Resolves the contacts of one step of length h in the given mode (not `off`).
+void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,
+                        std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                        double h, collision_workspace& workspace, collision_stats& stats);
+
+/// Pushes every sphere out of every wall it is inside and removes its velocity into the wall:
+/// the guarantee that no step leaves a position inside a wall.
+void clamp_to_walls(std::span<wall const> walls, collision_bodies const& bodies);
+
+/// The deepest overlap between any two spheres or a sphere and a wall or box (m, >= 0).
+double max_overlap(std::span<wall const> walls, std::span<obstacle const> obstacles,
+                   std::span<vec3 const> x, std::span<double const> radius,
+                   collision_workspace& workspace);
+
+} // namespace kugel::physics

@@ -1,0 +1,443 @@
+// Continuous collision mode: inside a step, contacts are handled in time order. Each sphere
+// moves on its step path (body_path); the earliest predicted contact is taken first, the
+// bodies involved are moved to that time and answered, and only their future contacts are
+// predicted again. Nothing tunnels, at any speed: a contact is found from the paths, not from
+// where the bodies happen to be at the end of the step.
+
+#include "collision_rules.hpp"
+#include "collisions.hpp"
+#include "time_of_impact.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <limits>
+#include <queue>
+#include <vector>
+
+namespace kugel::physics {
+
+void resolve_discrete(collision_settings const& settings, std::span<wall const> walls,
+                      std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                      double h, collision_workspace& workspace, collision_stats& stats);
+
+namespace {
+
+enum class event_kind : std::uint8_t { pair, wall, obstacle };
+
+struct event
+{
+    double time;
+    event_kind kind;
+    std::uint32_t body;
+    std::uint32_t other; ///< body, wall or obstacle index
+    std::uint32_t body_version;
+    std::uint32_t other_version; ///< for pairs
+
+    /// Earliest first; ties broken by kind and indices so the order never depends on the heap.
+    friend bool operator>(event const& l, event const& r)
+    {
+        if (l.time != r.time)
+            return l.time > r.time;
+        if (l.kind != r.kind)
+            return l.kind > r.kind;
+        if (l.body != r.body)
+            return l.body > r.body;
+        return l.other > r.other;
+    }
+};
+
+/// Relative gap below which two surfaces count as touching (and above which an event is only
+/// a checkpoint on the way): 1e-9 of the contact distance, far above rounding in positions
+/// yet far below anything visible.
+constexpr double touching_tolerance = 1e-9;
+
+/// Conservative advancement: repeatedly move to the time at which the gap could at most have
+/// closed, given a bound on the closing speed, until the gap is within tolerance. Never steps
+/// past the first contact. `gap(τ)` is the signed distance, `closing(τ)` the rate at which it
+/// shrinks (> 0 approaching), `speed_bound(τ)` a bound on |closing| over [τ, limit].
+template <class Gap, class Closing, class Bound>
+std::optional<double> advance_to_contact(double limit, double tolerance, Gap gap, Closing closing,
+                                         Bound speed_bound)
+{
+    double t = 0.0;
+    for (int iteration = 0; iteration < 100; ++iteration) {
+        double const g = gap(t);
+        if (g <= tolerance) {
+            if (closing(t) > 0.0)
+                return t;
+            // touching but parting: look a little later in case curved paths meet again
+            t += limit / 1024.0;
+        } else {
+            double const bound = speed_bound(t);
+            if (bound <= 0.0)
+                return std::nullopt;
+            t += g / bound;
+        }
+        if (t > limit)
+            return std::nullopt;
+    }
+    return t; // not converged: a checkpoint; the event re-predicts from there
+}
+
+/// The swept boxes of this step's paths, for finding who a changed path may meet. Each box
+/// at the start of the step is filed under the grid cell of its centre (cells at least as
+/// large as the box, so a query looks one cell further); a box larger than a cell, and every
+/// path that changes during the step, goes to a short list that queries scan. Nothing is
+/// removed, so a query sees a superset of the current paths, which the caller checks exactly.
+class path_grid
+{
+public:
+    void reset(std::span<aabb const> boxes, std::span<std::uint32_t const> members, std::size_t bodies)
+    {
+        entries_.clear();
+        listed_.clear();
+        seen_.assign(bodies, 0);
+        stamp_ = 0;
+        double extent = 0.0;
+        for (aabb const& box : boxes)
+            extent += box.extent().maxCoeff();
+        cell_ = boxes.empty() ? 1.0 : std::max(2.0 * extent / static_cast<double>(boxes.size()), 1e-12);
+        for (std::size_t k = 0; k < boxes.size(); ++k) {
+            if (boxes[k].extent().maxCoeff() > cell_)
+                listed_.push_back({members[k], boxes[k]});
+            else
+                entries_.push_back({key(cell_of(boxes[k].centre())), members[k]});
+        }
+        std::sort(entries_.begin(), entries_.end());
+    }
+
+    void insert(std::uint32_t body, aabb const& box) { listed_.push_back({body, box}); }
+
+    /// Calls f(j) once for every body that may have had a box overlapping `box`.
+    template <class F>
+    void for_each_near(aabb const& box, F f)
+    {
+        ++stamp_;
+        auto visit = [&](std::uint32_t j) {
+            if (seen_[j] != stamp_) {
+                seen_[j] = stamp_;
+                f(j);
+            }
+        };
+        for (auto const& [j, listed_box] : listed_)
+            if (overlaps(box, listed_box))
+                visit(j);
+        auto const lo = cell_of(box.min), hi = cell_of(box.max);
+        std::int64_t const cells = (hi[0] - lo[0] + 3) * (hi[1] - lo[1] + 3) * (hi[2] - lo[2] + 3);
+        if (cells > static_cast<std::int64_t>(entries_.size()) || cells <= 0) {
+            for (auto const& filed : entries_)
+                visit(filed.body);
+            return;
+        }
+        for (std::int64_t x = lo[0] - 1; x <= hi[0] + 1; ++x)
+            for (std::int64_t y = lo[1] - 1; y <= hi[1] + 1; ++y)
+                for (std::int64_t z = lo[2] - 1; z <= hi[2] + 1; ++z) {
+                    std::uint64_t const k = key({x, y, z});
+                    auto it = std::lower_bound(entries_.begin(), entries_.end(), entry{k, 0});
+                    for (; it != entries_.end() && it->key == k; ++it)
+                        visit(it->body);
+                }
+    }
+
+private:
+    struct entry
+    {
+        std::uint64_t key;
+        std::uint32_t body;
+        friend auto operator<=>(entry const&, entry const&) = default;
+    };
+
+    std::array<std::int64_t, 3> cell_of(vec3 const& p) const
+    {
+        std::array<std::int64_t, 3> c{};
+        for (int axis = 0; axis < 3; ++axis)
+            c[static_cast<std::size_t>(axis)] = static_cast<std::int64_t>(
+                std::clamp(std::floor(p[axis] / cell_), -1099511627776.0, 1099511627776.0));
+        return c;
+    }
+
+    /// 21 bits per axis; cells that wrap onto the same key only add candidates.
+    static std::uint64_t key(std::array<std::int64_t, 3> const& c)
+    {
+        auto const bits = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & 0x1FFFFFU; };
+        return (bits(c[0]) << 42U) | (bits(c[1]) << 21U) | bits(c[2]);
+    }
+
+    double cell_ = 1.0;
+    std::vector<entry> entries_;
+    std::vector<std::pair<std::uint32_t, aabb>> listed_;
+    std::vector<std::uint32_t> seen_;
+    std::uint32_t stamp_ = 0;
+};
+
+class event_loop
+{
+public:
+    event_loop(collision_settings const& settings, std::span<wall const> walls,
+               std::span<obstacle const> obstacles, collision_bodies const& bodies, double h,
+               collision_workspace& ws, collision_stats& stats)
+        : settings_(settings), walls_(walls), obstacles_(obstacles), b_(bodies), h_(h), ws_(ws),
+          stats_(stats)
+    {}
+
+    /// Returns false when the event cap was reached.
+    bool run()
+    {
+        start_paths();
+        predict_all();
+        std::uint64_t handled = 0;
+        while (!queue_.empty()) {
+            event const e = queue_.top();
+            queue_.pop();
+            if (!current(e))
+                continue;
+            if (handled == settings_.max_events_per_step)
+                return false;
+            ++handled;
+            ++stats_.events;
+            handle(e);
+        }
+        return true;
+    }
+
+    /// Moves every sphere to the end of the step and writes its state back.
+    void finish()
+    {
+        for (std::uint32_t i : ws_.members) {
+            ws_.paths[i].advance_to(h_);
+            b_.x[i] = ws_.paths[i].x;
+            b_.v[i] = ws_.paths[i].v;
+        }
+    }
+
+private:
+    bool is_dynamic(std::uint32_t i) const { return b_.inverse_mass[i] > 0.0; }
+
+    void start_paths()
+    {
+        std::size_t const n = b_.x.size();
+        ws_.paths.resize(n);
+        ws_.free_acceleration.resize(n);
+        ws_.version.assign(n, 0);
+        ws_.members.clear();
+        ws_.boxes.clear();
+        for (std::size_t i = 0; i < n; ++i) {
+            if (b_.radius[i] <= 0.0)
+                continue; // point masses never collide and keep the integrator's result
+            vec3 const a = is_dynamic(static_cast<std::uint32_t>(i)) ? vec3((b_.v[i] - b_.v0[i]) / h_)
+                                                                     : vec3(vec3::Zero());
+            ws_.paths[i] = body_path{b_.x0[i], b_.v0[i], a, 0.0};
+            ws_.free_acceleration[i] = a;
+            ws_.members.push_back(static_cast<std::uint32_t>(i));
+            ws_.boxes.push_back(ws_.paths[i].swept_box(h_, b_.radius[i]));
+        }
+    }
+
+    /// Every pair whose swept boxes meet, and every sphere against the static geometry.
+    void predict_all()
+    {
+        grid_ready_ = false;
+        find_overlapping_pairs(settings_.broadphase, ws_.boxes, ws_.pairs, ws_.broadphase);
+        for (box_pair const& p : ws_.pairs)
+            predict_pair(ws_.members[p.a], ws_.members[p.b], 0.0);
+        for (std::uint32_t i : ws_.members)
+            predict_static(i, 0.0);
+    }
+
+    /// After body i's path changed at time `now`: its contacts with everything.
+    void predict_body(std::uint32_t i, double now)
+    {
+        predict_static(i, now);
+        aabb const swept = path_from(i, now).swept_box(h_, b_.radius[i]);
+        if (!grid_ready_) { // most steps of a dilute gas have no event: build on demand
+            grid_.reset(ws_.boxes, ws_.members, b_.x.size());
+            grid_ready_ = true;
+        }
+        grid_.insert(i, swept);
+        grid_.for_each_near(swept, [&](std::uint32_t j) {
+            if (j == i || (!is_dynamic(i) && !is_dynamic(j)))
+                return;
+            if (overlaps(swept, path_from(j, now).swept_box(h_, b_.radius[j])))
+                predict_pair(i, j, now);
+        });
+    }
+
+    body_path path_from(std::uint32_t i, double now) const
+    {
+        body_path p = ws_.paths[i];
+        p.advance_to(now);
+        return p;
+    }
+
+    void push(double time, event_kind kind, std::uint32_t body, std::uint32_t other)
+    {
+        std::uint32_t const other_version = kind == event_kind::pair ? ws_.version[other] : 0;
+        queue_.push({time, kind, body, other, ws_.version[body], other_version});
+    }
+
+    bool current(event const& e) const
+    {
+        return ws_.version[e.body] == e.body_version &&
+               (e.kind != event_kind::pair || ws_.version[e.other] == e.other_version);
+    }
+
+    void predict_pair(std::uint32_t i, std::uint32_t j, double now)
+    {
+        if (!is_dynamic(i) && !is_dynamic(j))
+            return;
+        body_path const pi = path_from(i, now), pj = path_from(j, now);
+        double const limit = h_ - now;
+        double const reach = b_.radius[i] + b_.radius[j];
+        vec3 const a = pi.a - pj.a;
+        std::optional<double> t;
+        if (a.isZero(0.0)) {
+            // Same acceleration (no forces, a uniform field): relative motion is a straight
+            // line and the lecture's reduction gives the time exactly.
+            t = sphere_time_of_impact(pi.x, pi.v, b_.radius[i], pj.x, pj.v, b_.radius[j], limit);
+        } else {
+            vec3 const d0 = pi.x - pj.x, v0 = pi.v - pj.v;
+            double const a_norm = a.norm();
+            t = advance_to_contact(
+                limit, touching_tolerance * reach,
+                [&](double s) { return (d0 + s * v0 + (0.5 * s * s) * a).norm() - reach; },
+                [&](double s) {
+                    vec3 const d = d0 + s * v0 + (0.5 * s * s) * a;
+                    return -d.dot(v0 + s * a);
+                },
+                [&](double s) { return (v0 + s * a).norm() + a_norm * (limit - s); });
+        }
+        if (t)
+            push(now + *t, event_kind::pair, i, j);
+    }
+
+    void predict_static(std::uint32_t i, double now)
+    {
+        if (!is_dynamic(i))
+            return;
+        body_path const p = path_from(i, now);
+        double const r = b_.radius[i];
+        double const limit = h_ - now;
+        aabb const swept = p.swept_box(h_, r);
+        vec3 const centre = swept.centre(), half = 0.5 * swept.extent();
+        for (std::uint32_t k = 0; k < walls_.size(); ++k) {
+            plane const& surface = walls_[k].surface;
+            // the nearest point of the swept box (already grown by r) stays clear of the wall
+            if (surface.normal.dot(centre) - surface.normal.cwiseAbs().dot(half) > surface.offset)
+                continue;
+            if (auto t = plane_time_of_impact(surface, r, p.x, p.v, p.a, limit))
+                push(now + *t, event_kind::wall, i, k);
+        }
+        if (obstacles_.empty())
+            return;
+        double const a_norm = p.a.norm();
+        for (std::uint32_t k = 0; k < obstacles_.size(); ++k) {
+            obb const& box = obstacles_[k].box;
+            if (!overlaps(swept, aabb_of(box)))
+                continue;
+            auto t = advance_to_contact(
+                limit, touching_tolerance * r,
+                [&](double s) { return sphere_vs_obb(p.position_at(now + s), r, box).distance; },
+                [&](double s) {
+                    auto const c = sphere_vs_obb(p.position_at(now + s), r, box);
+                    return -c.normal.dot(p.velocity_at(now + s));
+                },
+                [&](double s) { return p.velocity_at(now + s).norm() + a_norm * (limit - s); });
+            if (t)
+                push(now + *t, event_kind::obstacle, i, k);
+        }
+    }
+
+    void handle(event const& e)
+    {
+        double const now = e.time;
+        std::uint32_t const i = e.body;
+        body_path& p = ws_.paths[i];
+        p.advance_to(now);
+        double const r = b_.radius[i];
+        bool answered = false;
+        switch (e.kind) {
+        case event_kind::wall: {
+            wall const& w = walls_[e.other];
+            if (w.surface.normal.dot(p.x) <= w.surface.offset + r + touching_tolerance * r)
+                answered = detail::respond_to_surface(p, w.surface.normal, w.surface.offset + r,
+                                                      w.damping, w.friction, settings_, h_);
+            stats_.wall_contacts += answered ? 1U : 0U;
+            break;
+        }
+        case event_kind::obstacle: {
+            obstacle const& o = obstacles_[e.other];
+            auto const c = sphere_vs_obb(p.x, r, o.box);
+            if (c.distance <= touching_tolerance * r)
+                answered = detail::respond_to_surface(p, c.normal, p.x.dot(c.normal) - c.distance,
+                                                      o.damping, o.friction, settings_, h_);
+            stats_.obstacle_contacts += answered ? 1U : 0U;
+            break;
+        }
+        case event_kind::pair: {
+            std::uint32_t const j = e.other;
+            body_path& q = ws_.paths[j];
+            q.advance_to(now);
+            vec3 const d = p.x - q.x;
+            double const distance = d.norm();
+            double const reach = r + b_.radius[j];
+            if (distance <= reach * (1.0 + touching_tolerance)) {
+                vec3 const n = distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
+                double const closing = (p.v - q.v).dot(n);
+                if (closing < 0.0) {
+                    double const threshold = detail::rest_threshold(settings_, p.a - q.a, n, h_);
+                    double const e_used =
+                        -closing * settings_.restitution < threshold ? 0.0 : settings_.restitution;
+                    auto const w = collide_spheres(p.v, b_.inverse_mass[i], q.v,
+                                                   b_.inverse_mass[j], n, e_used);
+                    p.v = w.first;
+                    q.v = w.second;
+                    // a body resting on a wall that is hit moves freely again; if it is still
+                    // pressed on the wall, its wall contact is found again at once
+                    p.a = ws_.free_acceleration[i];
+                    q.a = ws_.free_acceleration[j];
+                    ++stats_.sphere_contacts;
+                }
+            }
+            ++ws_.version[j];
+            predict_body(j, now);
+            break;
+        }
+        }
+        ++ws_.version[i];
+        predict_body(i, now);
+    }
+
+    collision_settings const& settings_;
+    std::span<wall const> walls_;
+    std::span<obstacle const> obstacles_;
+    collision_bodies const& b_;
+    double h_;
+    collision_workspace& ws_;
+    collision_stats& stats_;
+    std::priority_queue<event, std::vector<event>, std::greater<>> queue_;
+    path_grid grid_;
+    bool grid_ready_ = false;
+};
+
+} // namespace
+
+void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
+                        std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                        double h, collision_workspace& workspace, collision_stats& stats)
+{
+    event_loop loop(settings, walls, obstacles, bodies, h, workspace, stats);
+    bool const complete = loop.run();
+    loop.finish();
+    if (!complete) {
+        // Too many events (a dense resting pile): finish the step as the discrete mode would,
+        // starting from where the events left the bodies.
+        ++stats.capped_steps;
+        std::vector<vec3> const x0(bodies.x.begin(), bodies.x.end());
+        std::vector<vec3> const v0(bodies.v.begin(), bodies.v.end());
+        collision_bodies const settled{bodies.x, bodies.v, x0, v0, bodies.inverse_mass, bodies.radius};
+        resolve_discrete(settings, walls, obstacles, settled, h, workspace, stats);
+    }
+}
+
+} // namespace kugel::physics
