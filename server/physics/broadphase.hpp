@@ -25,7 +25,7 @@ struct box_pair
 enum class broadphase_kind {
     brute_force,     ///< all n(n-1)/2 pairs tested (lecture: "Brute force: n^2 Tests")
     sweep_and_prune, ///< the lecture's sorted endpoint list with an active list L
-    uniform_grid,    ///< boxes hashed into cells as large as the largest box
+    uniform_grid,    ///< boxes filed into cells as large as the largest box
 };
 
 /// "brute_force", "sweep_and_prune" or "grid"; anything else is nullopt.

@@ -141,7 +141,8 @@ std::optional<double> sphere_time_of_impact(vec3 const& x1, vec3 const& v1, doub
 
     // The lecture's reduction: sphere 1 becomes a point moving with v₁ − v₂, sphere 2 a
     // resting sphere of radius r₁ + r₂. With d = x₁ − x₂ and v = v₁ − v₂, the point is on
-    // that sphere when ‖d + v·t‖² = (r₁ + r₂)², i.e. a t² + 2 b t + c = 0 with
+    // that sphere when ‖d + v·t‖² = (r₁ + r₂)², i.e. a t² + 2 b t + c = 0 with a = v·v,
+    // b = d·v and c = d·d − (r₁ + r₂)².
     double const reach = r1 + r2;
     vec3 const d = x1 - x2;
     vec3 const v = v1 - v2;

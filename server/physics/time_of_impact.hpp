@@ -33,9 +33,11 @@ std::optional<double> plane_time_of_impact(plane const& wall, double radius, vec
                                            vec3 const& v, vec3 const& a, double t_max);
 
 /// The earliest t in [0, t_max] at which two spheres moving on straight lines with constant
-/// velocities touch, or nullopt; positions at that time are x₁ + t·v₁ and x₂ + t·v₂.
-/// By the lecture's reduction: a point at x₁ moving with v₁ − v₂ against a resting sphere of
-/// radius r₁ + r₂ at x₂.
+/// velocities touch, or nullopt. By the lecture's reduction: a point at x₁ moving with
+/// v₁ − v₂ against a resting sphere of radius r₁ + r₂ at x₂. The centres at that time are
+/// [x₁]_coll = x₁ + t·v₁ and [x₂]_coll = x₂ + t·v₂ (the lecture prints
+/// [x₁]_coll = x_coll − t_coll·v₂; with the reduced point x_coll = x₁ + t_coll·(v₁ − v₂) the
+/// sign must be +).
 ///  - No approach (d·(v₁ − v₂) >= 0 with d = x₁ − x₂: separating, or no relative motion):
 ///    nullopt, even when overlapping; there is no new contact to resolve.
 ///  - Touching or overlapping and approaching: 0.

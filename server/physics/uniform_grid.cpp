@@ -76,7 +76,7 @@ std::optional<std::uint64_t> checked_product(std::uint64_t a, std::uint64_t b)
 //
 // Falls back to sweep_and_prune, which has no such limits, when:
 //  - every box is a point (no extent gives a cell size);
-//  - a coordinate is more than 2^47 cells from the origin (e.g. 1e12 m with 0.01 m boxes);
+//  - a coordinate is more than 2^47 cells from the origin (e.g. 1e13 m with 0.01 m boxes);
 //  - the cells spanned by the scene do not fit in a 64-bit key (e.g. boxes of 0.1 m spread
 //    over ±1e12 m): the key packs the three cell coordinates into one integer.
 void uniform_grid_pairs(std::span<aabb const> boxes, std::vector<box_pair>& out,
