@@ -98,12 +98,29 @@ void resolve_obstacles_discrete(collision_settings const& settings,
     }
 }
 
+/// A sphere touching a wall (to a relative 1e-9 of its radius) and moving into it stops
+/// moving into it: the wall carries it.
+void stop_at_touched_walls(std::span<wall const> walls, collision_bodies const& b)
+{
+    for (wall const& w : walls) {
+        vec3 const& n = w.surface.normal;
+        for (std::size_t i = 0; i < b.x.size(); ++i) {
+            double const r = b.radius[i];
+            if (r <= 0.0 || b.inverse_mass[i] == 0.0)
+                continue;
+            double const vn = b.v[i].dot(n);
+            if (vn < 0.0 && n.dot(b.x[i]) <= w.surface.offset + r * (1.0 + 1e-9))
+                b.v[i] -= vn * n;
+        }
+    }
+}
+
 /// Discrete sphere pairs: overlapping pairs at the end of the step exchange momentum along
 /// their normal (restitution e, resting below the threshold), then are separated along the
 /// normal in proportion to their inverse masses, a few passes so stacks settle.
-void resolve_pairs_discrete(collision_settings const& settings, collision_bodies const& b,
-                            double h, std::span<vec3 const> free_a, collision_workspace& ws,
-                            collision_stats& stats)
+void resolve_pairs_discrete(collision_settings const& settings, std::span<wall const> walls,
+                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
+                            collision_workspace& ws, collision_stats& stats)
 {
     sphere_boxes(b.x, b.radius, ws);
     find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
@@ -113,21 +130,27 @@ void resolve_pairs_discrete(collision_settings const& settings, collision_bodies
         gap = distance - (b.radius[i] + b.radius[j]);
         return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
     };
-    for (box_pair const& p : ws.pairs) {
-        std::size_t const i = ws.members[p.a], j = ws.members[p.b];
-        double gap = 0.0;
-        vec3 const n = normal_of(i, j, gap);
-        if (gap > 0.0)
-            continue;
-        double const closing = (b.v[i] - b.v[j]).dot(n);
-        if (closing >= 0.0)
-            continue;
-        double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
-        double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
-        auto const w = collide_spheres(b.v[i], b.inverse_mass[i], b.v[j], b.inverse_mass[j], n, e);
-        b.v[i] = w.first;
-        b.v[j] = w.second;
-        ++stats.sphere_contacts;
+    // Velocity passes: each pair that overlaps and approaches exchanges momentum; a sphere
+    // pressed into a wall it touches loses that normal speed. Repeated so a stack passes its
+    // weight down to the floor within the step instead of sinking into itself.
+    for (int pass = 0; pass < std::max(settings.velocity_iterations, 1); ++pass) {
+        for (box_pair const& p : ws.pairs) {
+            std::size_t const i = ws.members[p.a], j = ws.members[p.b];
+            double gap = 0.0;
+            vec3 const n = normal_of(i, j, gap);
+            if (gap > 0.0)
+                continue;
+            double const closing = (b.v[i] - b.v[j]).dot(n);
+            if (closing >= 0.0)
+                continue;
+            double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
+            double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
+            auto const w = collide_spheres(b.v[i], b.inverse_mass[i], b.v[j], b.inverse_mass[j], n, e);
+            b.v[i] = w.first;
+            b.v[j] = w.second;
+            stats.sphere_contacts += pass == 0 ? 1U : 0U;
+        }
+        stop_at_touched_walls(walls, b);
     }
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
         for (box_pair const& p : ws.pairs) {
@@ -140,6 +163,7 @@ void resolve_pairs_discrete(collision_settings const& settings, collision_bodies
             b.x[i] -= (gap * b.inverse_mass[i] / total) * n;
             b.x[j] += (gap * b.inverse_mass[j] / total) * n;
         }
+        clamp_to_walls(walls, b); // walls push back in every pass, so stacks settle on them
     }
 }
 
@@ -166,7 +190,7 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
         free_a[i] = (bodies.v[i] - bodies.v0[i]) / h;
     resolve_walls_discrete(settings, walls, bodies, h, free_a, stats);
     resolve_obstacles_discrete(settings, obstacles, bodies, h, free_a, stats);
-    resolve_pairs_discrete(settings, bodies, h, free_a, workspace, stats);
+    resolve_pairs_discrete(settings, walls, bodies, h, free_a, workspace, stats);
 }
 
 void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,

@@ -343,8 +343,8 @@ obstacle_settings read_obstacle(json const& value, location const& at)
 physics::collision_settings read_collisions(json const& value, location const& at)
 {
     object(value, at,
-           {"mode", "broadphase", "restitution", "rest_speed", "position_iterations",
-            "max_events_per_step"});
+           {"mode", "broadphase", "restitution", "rest_speed", "velocity_iterations",
+            "position_iterations", "max_events_per_step"});
     physics::collision_settings c;
     c.mode = physics::collision_mode::discrete; // naming collisions turns them on
     if (auto const* mode = find(value, "mode")) {
@@ -365,6 +365,9 @@ physics::collision_settings read_collisions(json const& value, location const& a
     c.restitution = optional_field(value, "restitution", at, c.restitution, unit_interval);
     if (auto const* rest = find(value, "rest_speed"))
         c.rest_speed = number_at_least(*rest, at / "rest_speed", 0.0, false);
+    c.velocity_iterations = static_cast<int>(optional_field(
+        value, "velocity_iterations", at, std::uint64_t{4},
+        [](json const& v, location const& l) { return whole_number(v, l, 1, 100); }));
     c.position_iterations = static_cast<int>(optional_field(
         value, "position_iterations", at, std::uint64_t{4},
         [](json const& v, location const& l) { return whole_number(v, l, 0, 100); }));
