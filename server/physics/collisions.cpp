@@ -6,6 +6,7 @@
 #include <algorithm>
 #include <array>
 #include <limits>
+#include <utility>
 
 namespace kugel::physics {
 
@@ -27,6 +28,24 @@ void sphere_boxes(std::span<vec3 const> x, std::span<double const> radius, colli
             ws.boxes.push_back(aabb_of_sphere(x[i], radius[i]));
             ws.members.push_back(static_cast<std::uint32_t>(i));
         }
+    }
+}
+
+/// Pushes sphere i out of every wall it is inside and removes its velocity into that wall.
+void clamp_body_to_walls(std::span<wall const> walls, collision_bodies const& b, std::size_t i)
+{
+    double const r = b.radius[i];
+    if (r <= 0.0 || b.inverse_mass[i] == 0.0)
+        return;
+    for (wall const& w : walls) {
+        vec3 const& n = w.surface.normal;
+        double const depth = w.surface.offset + r - n.dot(b.x[i]);
+        if (depth <= 0.0)
+            continue;
+        b.x[i] += depth * n;
+        double const vn = b.v[i].dot(n);
+        if (vn < 0.0)
+            b.v[i] -= vn * n;
     }
 }
 
@@ -69,13 +88,14 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
         if (bounced) {
             b.x[i] = end;
             b.v[i] = path.velocity_at(h);
+            clamp_body_to_walls(walls, b, i); // more than four walls in one step: stop here
         }
     }
 }
 
 /// Discrete boxes: a sphere overlapping a box is pushed out along the contact normal and
 /// bounces by the wall rule.
-void resolve_obstacles_discrete(collision_settings const& settings,
+void resolve_obstacles_discrete(collision_settings const& settings, std::span<wall const> walls,
                                 std::span<obstacle const> obstacles, collision_bodies const& b,
                                 double h, std::span<vec3 const> free_a, collision_stats& stats)
 {
@@ -94,52 +114,66 @@ void resolve_obstacles_discrete(collision_settings const& settings,
                 ++stats.obstacle_contacts;
             b.x[i] = path.x;
             b.v[i] = path.v;
+            clamp_body_to_walls(walls, b, i);
         }
     }
 }
 
 /// A sphere touching a wall (to a relative 1e-9 of its radius) and moving into it stops
 /// moving into it: the wall carries it.
-void stop_at_touched_walls(std::span<wall const> walls, collision_bodies const& b)
+void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies const& b, std::size_t i)
 {
+    double const r = b.radius[i];
     for (wall const& w : walls) {
         vec3 const& n = w.surface.normal;
-        for (std::size_t i = 0; i < b.x.size(); ++i) {
-            double const r = b.radius[i];
-            if (r <= 0.0 || b.inverse_mass[i] == 0.0)
-                continue;
-            double const vn = b.v[i].dot(n);
-            if (vn < 0.0 && n.dot(b.x[i]) <= w.surface.offset + r * (1.0 + 1e-9))
-                b.v[i] -= vn * n;
-        }
+        double const vn = b.v[i].dot(n);
+        if (vn < 0.0 && n.dot(b.x[i]) <= w.surface.offset + r * (1.0 + 1e-9))
+            b.v[i] -= vn * n;
     }
 }
 
-/// Discrete sphere pairs: overlapping pairs at the end of the step exchange momentum along
-/// their normal (restitution e, resting below the threshold), then are separated along the
-/// normal in proportion to their inverse masses, a few passes so stacks settle.
+/// Discrete sphere pairs: the broadphase's candidates at the end positions are narrowed to
+/// the pairs that touch, the step's contacts. Velocity passes: each contact that approaches
+/// exchanges momentum along its normal (restitution e, none below the rest threshold), and a
+/// sphere in contact pressed into a wall it touches loses that normal speed; repeated, so a
+/// stack passes its weight down to the floor within the step instead of sinking into itself.
+/// Position passes: contacts that still overlap are pushed apart in proportion to their
+/// inverse masses, and walls push back in every pass, so stacks settle on them. Only the
+/// contacts and the spheres in them are visited after the narrowphase.
 void resolve_pairs_discrete(collision_settings const& settings, std::span<wall const> walls,
                             collision_bodies const& b, double h, std::span<vec3 const> free_a,
                             collision_workspace& ws, collision_stats& stats)
 {
     sphere_boxes(b.x, b.radius, ws);
     find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
+    auto& contacts = ws.contacts;
+    auto& touched = ws.touched;
+    contacts.clear();
+    touched.clear();
+    ws.in_contact.assign(b.x.size(), 0);
+    for (box_pair const& p : ws.pairs) {
+        std::uint32_t const i = ws.members[p.a], j = ws.members[p.b];
+        double const reach = b.radius[i] + b.radius[j];
+        if ((b.x[i] - b.x[j]).squaredNorm() > reach * reach)
+            continue;
+        contacts.push_back({i, j});
+        for (std::uint32_t k : {i, j})
+            if (!std::exchange(ws.in_contact[k], 1))
+                touched.push_back(k);
+    }
+    std::sort(touched.begin(), touched.end()); // visit in slot order: deterministic
+
     auto normal_of = [&](std::size_t i, std::size_t j, double& gap) {
         vec3 const d = b.x[i] - b.x[j];
         double const distance = d.norm();
         gap = distance - (b.radius[i] + b.radius[j]);
         return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
     };
-    // Velocity passes: each pair that overlaps and approaches exchanges momentum; a sphere
-    // pressed into a wall it touches loses that normal speed. Repeated so a stack passes its
-    // weight down to the floor within the step instead of sinking into itself.
     for (int pass = 0; pass < std::max(settings.velocity_iterations, 1); ++pass) {
-        for (box_pair const& p : ws.pairs) {
-            std::size_t const i = ws.members[p.a], j = ws.members[p.b];
+        for (box_pair const& c : contacts) {
+            std::size_t const i = c.a, j = c.b;
             double gap = 0.0;
             vec3 const n = normal_of(i, j, gap);
-            if (gap > 0.0)
-                continue;
             double const closing = (b.v[i] - b.v[j]).dot(n);
             if (closing >= 0.0)
                 continue;
@@ -150,11 +184,12 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
             b.v[j] = w.second;
             stats.sphere_contacts += pass == 0 ? 1U : 0U;
         }
-        stop_at_touched_walls(walls, b);
+        for (std::uint32_t k : touched)
+            stop_body_at_touched_walls(walls, b, k);
     }
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
-        for (box_pair const& p : ws.pairs) {
-            std::size_t const i = ws.members[p.a], j = ws.members[p.b];
+        for (box_pair const& c : contacts) {
+            std::size_t const i = c.a, j = c.b;
             double const total = b.inverse_mass[i] + b.inverse_mass[j];
             double gap = 0.0;
             vec3 const n = normal_of(i, j, gap);
@@ -163,7 +198,8 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
             b.x[i] -= (gap * b.inverse_mass[i] / total) * n;
             b.x[j] += (gap * b.inverse_mass[j] / total) * n;
         }
-        clamp_to_walls(walls, b); // walls push back in every pass, so stacks settle on them
+        for (std::uint32_t k : touched)
+            clamp_body_to_walls(walls, b, k);
     }
 }
 
@@ -189,7 +225,7 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     for (std::size_t i = 0; i < bodies.x.size(); ++i)
         free_a[i] = (bodies.v[i] - bodies.v0[i]) / h;
     resolve_walls_discrete(settings, walls, bodies, h, free_a, stats);
-    resolve_obstacles_discrete(settings, obstacles, bodies, h, free_a, stats);
+    resolve_obstacles_discrete(settings, walls, obstacles, bodies, h, free_a, stats);
     resolve_pairs_discrete(settings, walls, bodies, h, free_a, workspace, stats);
 }
 
@@ -197,31 +233,20 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats)
 {
-    if (settings.mode == collision_mode::discrete)
+    // Neither mode leaves a sphere inside a wall: discrete mode clamps every sphere it moves
+    // (a wall bounce, a box, a contact), continuous mode clamps all at the end.
+    if (settings.mode == collision_mode::discrete) {
         resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats);
-    else if (settings.mode == collision_mode::continuous)
+    } else if (settings.mode == collision_mode::continuous) {
         resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats);
-    if (settings.mode != collision_mode::off)
         clamp_to_walls(walls, bodies);
+    }
 }
 
 void clamp_to_walls(std::span<wall const> walls, collision_bodies const& b)
 {
-    for (wall const& w : walls) {
-        vec3 const& n = w.surface.normal;
-        for (std::size_t i = 0; i < b.x.size(); ++i) {
-            double const r = b.radius[i];
-            if (r <= 0.0 || b.inverse_mass[i] == 0.0)
-                continue;
-            double const depth = w.surface.offset + r - n.dot(b.x[i]);
-            if (depth <= 0.0)
-                continue;
-            b.x[i] += depth * n;
-            double const vn = b.v[i].dot(n);
-            if (vn < 0.0)
-                b.v[i] -= vn * n;
-        }
-    }
+    for (std::size_t i = 0; i < b.x.size(); ++i)
+        clamp_body_to_walls(walls, b, i);
 }
 
 double max_overlap(std::span<wall const> walls, std::span<obstacle const> obstacles,
