@@ -54,7 +54,7 @@ struct collision_settings
     int position_iterations = 4; ///< discrete mode: separation passes over overlapping pairs
     /// Continuous mode: events handled per step at most; past it the step finishes in
     /// discrete mode and the step is counted in collision_stats::capped_steps.
-    std::uint64_t max_events_per_step = 1'000'000;
+    std::uint64_t max_events_per_step = 100'000;
 };
 
 /// Counters since the world was made.

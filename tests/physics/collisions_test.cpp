@@ -258,6 +258,27 @@ TEST(ElasticGas, ContinuousModeConservesEnergyAndHoldsEveryone)
     EXPECT_LE(w.max_overlap(), 1e-9);
 }
 
+// A resting stack in continuous mode makes contact after contact (each ball is pressed onto
+// the next by gravity); past the cap the step finishes in discrete mode, the step is counted,
+// and nothing ends up inside the floor.
+TEST(EventCap, IsReportedAndTheStepStillFinishesSafely)
+{
+    world_settings s = colliding(collision_mode::continuous);
+    s.collisions.max_events_per_step = 20;
+    world w(s);
+    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
+    w.add_wall(floor_wall(0.5));
+    for (int k = 0; k < 6; ++k)
+        w.add_body(ball({0, 0, 0.5 + 1.0 * k}, {0, 0, 0}));
+    for (int i = 0; i < 120; ++i)
+        w.step(1.0 / 60.0);
+    EXPECT_GT(w.collisions().capped_steps, 0U);
+    for (auto const& x : w.bodies().positions()) {
+        EXPECT_TRUE(x.allFinite());
+        EXPECT_GE(x.z(), 0.5 - 1e-12);
+    }
+}
+
 TEST(Obstacles, BallBouncesOffARotatedBox)
 {
     world w(colliding(collision_mode::continuous));
