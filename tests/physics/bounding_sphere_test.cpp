@@ -1,4 +1,5 @@
 #include "physics/bounding_sphere.hpp"
+#include "support/random_source.hpp"
 
 #include <Eigen/Geometry>
 #include <algorithm>
@@ -13,56 +14,7 @@
 namespace kugel::physics {
 namespace {
 
-/// Seeded numbers that are the same with every standard library (the distributions of <random>
-/// are not specified exactly; the engine is).
-class random_source
-{
-  public:
-    explicit random_source(std::uint64_t seed) : engine_(seed) {}
-
-    double uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; } // [0, 1)
-    double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-    std::size_t below(std::size_t n)
-    {
-        return static_cast<std::size_t>(uniform() * static_cast<double>(n));
-    }
-
-    vec3 in_cube(double half)
-    {
-        return {uniform(-half, half), uniform(-half, half), uniform(-half, half)};
-    }
-
-    vec3 in_ball(double radius)
-    {
-        for (;;) {
-            vec3 const p = in_cube(1.0);
-            if (p.squaredNorm() < 1.0)
-                return radius * p;
-        }
-    }
-
-    vec3 on_sphere(double radius)
-    {
-        for (;;) {
-            vec3 const p = in_ball(1.0);
-            if (p.squaredNorm() > 1e-4)
-                return radius * p.normalized();
-        }
-    }
-
-    Eigen::Matrix3d rotation()
-    {
-        Eigen::Quaterniond q;
-        do {
-            q.coeffs() =
-                Eigen::Vector4d(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
-        } while (q.coeffs().norm() < 0.1 || q.coeffs().norm() > 1.0);
-        return q.normalized().toRotationMatrix();
-    }
-
-  private:
-    std::mt19937_64 engine_;
-};
+using test_support::random_source;
 
 /// Every point p has (p − centre).norm() <= radius·(1 + 1e-14). Both functions guarantee the
 /// comparison without slack for their own evaluation of the distance; 1e-14 (~50 ulps) only

@@ -1,4 +1,5 @@
 #include "physics/obb.hpp"
+#include "support/random_source.hpp"
 
 #include <Eigen/Geometry>
 #include <array>
@@ -15,42 +16,7 @@
 namespace kugel::physics {
 namespace {
 
-/// Seeded numbers that are the same with every standard library (the distributions of <random>
-/// are not specified exactly; the engine is).
-class random_source
-{
-  public:
-    explicit random_source(std::uint64_t seed) : engine_(seed) {}
-
-    double uniform() { return static_cast<double>(engine_() >> 11) * 0x1.0p-53; } // [0, 1)
-    double uniform(double lo, double hi) { return lo + (hi - lo) * uniform(); }
-    vec3 in_cube(double half)
-    {
-        return {uniform(-half, half), uniform(-half, half), uniform(-half, half)};
-    }
-
-    vec3 on_sphere()
-    {
-        for (;;) {
-            vec3 const p = in_cube(1.0);
-            if (p.squaredNorm() < 1.0 && p.squaredNorm() > 1e-4)
-                return p.normalized();
-        }
-    }
-
-    Eigen::Matrix3d rotation()
-    {
-        Eigen::Quaterniond q;
-        do {
-            q.coeffs() =
-                Eigen::Vector4d(uniform(-1, 1), uniform(-1, 1), uniform(-1, 1), uniform(-1, 1));
-        } while (q.coeffs().norm() < 0.1 || q.coeffs().norm() > 1.0);
-        return q.normalized().toRotationMatrix();
-    }
-
-  private:
-    std::mt19937_64 engine_;
-};
+using test_support::random_source;
 
 Eigen::Matrix3d rotation_about(vec3 const& axis, double angle)
 {
