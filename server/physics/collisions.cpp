@@ -88,7 +88,6 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
         if (bounced) {
             b.x[i] = end;
             b.v[i] = path.velocity_at(h);
-            clamp_body_to_walls(walls, b, i); // more than four walls in one step: stop here
         }
     }
 }
@@ -132,34 +131,36 @@ void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies co
     }
 }
 
-/// Discrete sphere pairs: the broadphase's candidates at the end positions are narrowed to
-/// the pairs that touch, the step's contacts. Velocity passes: each contact that approaches
-/// exchanges momentum along its normal (restitution e, none below the rest threshold), and a
-/// sphere in contact pressed into a wall it touches loses that normal speed; repeated, so a
-/// stack passes its weight down to the floor within the step instead of sinking into itself.
-/// Position passes: contacts that still overlap are pushed apart in proportion to their
-/// inverse masses, and walls push back in every pass, so stacks settle on them. Only the
-/// contacts and the spheres in them are visited after the narrowphase.
+/// Discrete sphere pairs. The broadphase's candidates at the end positions are the near
+/// pairs; those that touch are the step's contacts. Velocity passes: each contact that
+/// approaches exchanges momentum along its normal (restitution e, none below the rest
+/// threshold), and a sphere pressed into a wall it touches loses that normal speed; repeated,
+/// so a stack passes its weight down to the floor within the step instead of sinking into
+/// itself. Position passes: every near pair that overlaps by then is pushed apart in
+/// proportion to the inverse masses (near, not only the contacts: a push can bring two
+/// neighbours into overlap), and walls push back in every pass, so stacks settle on them.
+/// Only near pairs and their spheres are visited after the broadphase.
 void resolve_pairs_discrete(collision_settings const& settings, std::span<wall const> walls,
                             collision_bodies const& b, double h, std::span<vec3 const> free_a,
                             collision_workspace& ws, collision_stats& stats)
 {
     sphere_boxes(b.x, b.radius, ws);
     find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
+    auto& near = ws.pairs;
     auto& contacts = ws.contacts;
     auto& touched = ws.touched;
     contacts.clear();
     touched.clear();
     ws.in_contact.assign(b.x.size(), 0);
-    for (box_pair const& p : ws.pairs) {
+    for (box_pair& p : near) {
         std::uint32_t const i = ws.members[p.a], j = ws.members[p.b];
-        double const reach = b.radius[i] + b.radius[j];
-        if ((b.x[i] - b.x[j]).squaredNorm() > reach * reach)
-            continue;
-        contacts.push_back({i, j});
+        p = {i, j}; // from box indices to body slots
         for (std::uint32_t k : {i, j})
             if (!std::exchange(ws.in_contact[k], 1))
                 touched.push_back(k);
+        double const reach = b.radius[i] + b.radius[j];
+        if ((b.x[i] - b.x[j]).squaredNorm() <= reach * reach)
+            contacts.push_back(p);
     }
     std::sort(touched.begin(), touched.end()); // visit in slot order: deterministic
 
@@ -188,7 +189,7 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
             stop_body_at_touched_walls(walls, b, k);
     }
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
-        for (box_pair const& c : contacts) {
+        for (box_pair const& c : near) {
             std::size_t const i = c.a, j = c.b;
             double const total = b.inverse_mass[i] + b.inverse_mass[j];
             double gap = 0.0;
@@ -233,14 +234,15 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats)
 {
-    // Neither mode leaves a sphere inside a wall: discrete mode clamps every sphere it moves
-    // (a wall bounce, a box, a contact), continuous mode clamps all at the end.
-    if (settings.mode == collision_mode::discrete) {
+    // Neither mode leaves a sphere inside a wall: both clamp every sphere at the end. (Discrete
+    // mode also clamps inside its position passes. Clamping a bounced sphere before the pair
+    // passes instead of after them, to save this loop, left stacks settling four times worse.)
+    if (settings.mode == collision_mode::discrete)
         resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats);
-    } else if (settings.mode == collision_mode::continuous) {
+    else if (settings.mode == collision_mode::continuous)
         resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats);
+    if (settings.mode != collision_mode::off)
         clamp_to_walls(walls, bodies);
-    }
 }
 
 void clamp_to_walls(std::span<wall const> walls, collision_bodies const& b)
