@@ -139,7 +139,9 @@ void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies co
 /// itself. Position passes: every near pair that overlaps by then is pushed apart in
 /// proportion to the inverse masses (near, not only the contacts: a push can bring two
 /// neighbours into overlap), and walls push back in every pass, so stacks settle on them.
-/// Only near pairs and their spheres are visited after the broadphase.
+/// After the broadphase, only near pairs are visited, and only the spheres whose velocity or
+/// position a pass changed are checked against the walls (each sphere on its own, so order
+/// does not matter).
 void resolve_pairs_discrete(collision_settings const& settings, std::span<wall const> walls,
                             collision_bodies const& b, double h, std::span<vec3 const> free_a,
                             collision_workspace& ws, collision_stats& stats)
@@ -151,18 +153,19 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
     auto& touched = ws.touched;
     contacts.clear();
     touched.clear();
-    ws.in_contact.assign(b.x.size(), 0);
+    ws.mark.assign(b.x.size(), 0);
+    std::uint32_t stamp = 1;
     for (box_pair& p : near) {
         std::uint32_t const i = ws.members[p.a], j = ws.members[p.b];
         p = {i, j}; // from box indices to body slots
-        for (std::uint32_t k : {i, j})
-            if (!std::exchange(ws.in_contact[k], 1))
-                touched.push_back(k);
         double const reach = b.radius[i] + b.radius[j];
-        if ((b.x[i] - b.x[j]).squaredNorm() <= reach * reach)
-            contacts.push_back(p);
+        if ((b.x[i] - b.x[j]).squaredNorm() > reach * reach)
+            continue;
+        contacts.push_back(p);
+        for (std::uint32_t k : {i, j})
+            if (std::exchange(ws.mark[k], stamp) != stamp)
+                touched.push_back(k); // the spheres whose velocity the passes may change
     }
-    std::sort(touched.begin(), touched.end()); // visit in slot order: deterministic
 
     auto normal_of = [&](std::size_t i, std::size_t j, double& gap) {
         vec3 const d = b.x[i] - b.x[j];
@@ -189,8 +192,13 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
             stop_body_at_touched_walls(walls, b, k);
     }
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
+        ++stamp;
+        touched.clear(); // now: the spheres this pass moved
         for (box_pair const& c : near) {
             std::size_t const i = c.a, j = c.b;
+            double const reach = b.radius[i] + b.radius[j];
+            if ((b.x[i] - b.x[j]).squaredNorm() >= reach * reach)
+                continue; // most near pairs are apart: no square root for them
             double const total = b.inverse_mass[i] + b.inverse_mass[j];
             double gap = 0.0;
             vec3 const n = normal_of(i, j, gap);
@@ -198,6 +206,9 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
                 continue;
             b.x[i] -= (gap * b.inverse_mass[i] / total) * n;
             b.x[j] += (gap * b.inverse_mass[j] / total) * n;
+            for (std::uint32_t k : {c.a, c.b})
+                if (std::exchange(ws.mark[k], stamp) != stamp)
+                    touched.push_back(k);
         }
         for (std::uint32_t k : touched)
             clamp_body_to_walls(walls, b, k);

@@ -90,8 +90,8 @@ public:
     std::vector<std::uint32_t> members; ///< body slot of each box
     std::vector<box_pair> pairs;
     std::vector<box_pair> contacts;     ///< discrete mode: touching pairs, by body slot
-    std::vector<std::uint32_t> touched; ///< discrete mode: the bodies in near pairs
-    std::vector<std::uint8_t> in_contact;
+    std::vector<std::uint32_t> touched; ///< discrete mode: the spheres a pass changed
+    std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
     std::vector<body_path> paths;       ///< continuous mode: each body's path in this step
     std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
     std::vector<std::uint32_t> version; ///< continuous mode: bumped when a path changes
