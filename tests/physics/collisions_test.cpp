@@ -1,9 +1,9 @@
 #include "physics/diagnostics.hpp"
 #include "physics/world.hpp"
+#include "support/state_hash.hpp"
 
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <random>
 
 namespace kugel::physics {
@@ -305,20 +305,7 @@ TEST(CollisionStatic, StaticSphereActsAsAnObstacle)
     }
 }
 
-/// FNV-1a over the bytes of every position and velocity.
-std::uint64_t state_hash(world const& w)
-{
-    std::uint64_t h = 14695981039346656037ULL;
-    for (std::size_t i = 0; i < w.bodies().size(); ++i) {
-        for (vec3 const* v : {&w.bodies().positions()[i], &w.bodies().velocities()[i]}) {
-            unsigned char bytes[sizeof(double) * 3];
-            std::memcpy(bytes, v->data(), sizeof bytes);
-            for (unsigned char b : bytes)
-                h = (h ^ b) * 1099511628211ULL;
-        }
-    }
-    return h;
-}
+using test_support::state_hash;
 
 /// Discrete mode: 200 spheres dropped into a box under gravity. Continuous mode: the same
 /// spheres as an elastic gas without gravity (a resting pile is discrete mode's job).

@@ -1,9 +1,9 @@
 #include "physics/diagnostics.hpp"
 #include "physics/world.hpp"
+#include "support/state_hash.hpp"
 
 #include <gtest/gtest.h>
 
-#include <cstring>
 #include <random>
 
 namespace kugel::physics {
@@ -160,22 +160,7 @@ TEST(World, RemovingABodyInvalidatesCachedForces)
         EXPECT_EQ(a.bodies().positions()[slot], b.bodies().positions()[slot]) << slot;
 }
 
-/// FNV-1a over the bytes of every position and velocity.
-std::uint64_t state_hash(world const& w)
-{
-    std::uint64_t h = 14695981039346656037ULL;
-    auto mix = [&](vec3 const& v) {
-        unsigned char bytes[sizeof(double) * 3];
-        std::memcpy(bytes, v.data(), sizeof bytes);
-        for (unsigned char b : bytes)
-            h = (h ^ b) * 1099511628211ULL;
-    };
-    for (std::size_t i = 0; i < w.bodies().size(); ++i) {
-        mix(w.bodies().positions()[i]);
-        mix(w.bodies().velocities()[i]);
-    }
-    return h;
-}
+using test_support::state_hash;
 
 world fixed_scene()
 {
