@@ -1,0 +1,218 @@
+#pragma once
+
+// The messages of the Kugel wire protocol as plain structs. PROTOCOL.md describes them for
+// client authors; codec.hpp turns them into JSON text and back. Units are SI.
+
+#include "protocol/error_code.hpp"
+
+#include <array>
+#include <cstddef>
+#include <cstdint>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <variant>
+#include <vector>
+
+namespace kugel::protocol {
+
+/// The version this code speaks: `hello.protocol` and `welcome.protocol`.
+inline constexpr int protocol_version = 1;
+
+/// 2^53 − 1, the largest integer a double (and so JavaScript) holds exactly. Refs, body ids,
+/// client ids and ticks never exceed it.
+inline constexpr std::uint64_t max_safe_integer = (std::uint64_t{1} << 53) - 1;
+
+using vec3 = std::array<double, 3>;
+
+// Client -> server --------------------------------------------------------------------------
+
+/// Optional first message: which protocol the client speaks, and a name for logs.
+struct hello
+{
+    static constexpr std::string_view type = "hello";
+    std::optional<int> protocol; ///< must be protocol_version when given
+    std::optional<std::string> name;
+
+    bool operator==(hello const&) const = default;
+};
+
+/// A body to create. Decoding guarantees exactly one of mass and density is set.
+struct body_spec
+{
+    vec3 position{};               ///< m
+    vec3 velocity{};               ///< m/s
+    double radius = 0.0;           ///< m, >= 0; 0 is a point mass, which never collides
+    std::optional<double> mass;    ///< kg, > 0
+    std::optional<double> density; ///< kg/m³, > 0; needs radius > 0; mass = density·4/3·π·r³
+    double charge = 0.0;           ///< C
+
+    bool operator==(body_spec const&) const = default;
+};
+
+struct spawn
+{
+    static constexpr std::string_view type = "spawn";
+    std::uint64_t ref = 0; ///< chosen by the client, <= max_safe_integer; echoed in the reply
+    body_spec body;
+
+    bool operator==(spawn const&) const = default;
+};
+
+/// Change a body's velocity by impulse / mass.
+struct impulse
+{
+    static constexpr std::string_view type = "impulse";
+    std::uint64_t ref = 0;
+    std::uint64_t id = 0; ///< the body, as in snapshot ids
+    vec3 impulse{};       ///< N·s (kg·m/s)
+
+    bool operator==(struct impulse const&) const = default;
+};
+
+struct remove
+{
+    static constexpr std::string_view type = "remove";
+    std::uint64_t ref = 0;
+    std::uint64_t id = 0;
+
+    bool operator==(remove const&) const = default;
+};
+
+struct ping
+{
+    static constexpr std::string_view type = "ping";
+    std::uint64_t ref = 0;
+
+    bool operator==(ping const&) const = default;
+};
+
+using client_message = std::variant<hello, spawn, impulse, remove, ping>;
+
+// Server -> client --------------------------------------------------------------------------
+
+/// The plane normal · x = offset; the normal points to where bodies may be.
+struct wall
+{
+    vec3 normal{};         ///< unit vector
+    double offset = 0.0;   ///< m
+    double damping = 0.0;  ///< 0..1, normal speed lost in a bounce
+    double friction = 0.0; ///< 0..1, tangential speed lost in a bounce
+
+    bool operator==(wall const&) const = default;
+};
+
+/// A static box: centre + Σ s_i·half_extents[i]·axes[i] for s_i in [−1, 1].
+struct obstacle
+{
+    vec3 centre{};              ///< m
+    vec3 half_extents{};        ///< m, >= 0
+    std::array<vec3, 3> axes{}; ///< unit vectors, the columns of the box's rotation
+
+    bool operator==(obstacle const&) const = default;
+};
+
+/// The sphere holding the scene's bodies (as they start), obstacles and box: what a client
+/// frames its camera on.
+struct world_bounds
+{
+    vec3 centre{};       ///< m
+    double radius = 0.0; ///< m
+
+    bool operator==(world_bounds const&) const = default;
+};
+
+/// The static geometry of the room's scene.
+struct scene_geometry
+{
+    std::string name;
+    std::vector<wall> walls;
+    std::vector<obstacle> obstacles;
+    world_bounds bounds;
+
+    bool operator==(scene_geometry const&) const = default;
+};
+
+struct session_limits
+{
+    std::uint64_t max_message_bytes = 0;   ///< longer frames close the connection (1009)
+    std::uint64_t max_bodies = 0;          ///< a spawn beyond it gets room_full
+    std::uint64_t commands_per_second = 0; ///< more get rate_limited
+
+    bool operator==(session_limits const&) const = default;
+};
+
+/// The server's first message on every connection.
+struct welcome
+{
+    static constexpr std::string_view type = "welcome";
+    int protocol = protocol_version;
+    std::uint64_t client = 0; ///< this connection's id in the room
+    std::string room;
+    double tick_rate = 0.0;     ///< Hz
+    double dt = 0.0;            ///< s of simulated time per tick
+    double snapshot_rate = 0.0; ///< Hz
+    scene_geometry scene;
+    session_limits limits;
+
+    bool operator==(welcome const&) const = default;
+};
+
+/// A command took effect.
+struct ack
+{
+    static constexpr std::string_view type = "ack";
+    std::uint64_t ref = 0;
+    std::uint64_t tick = 0;          ///< the tick at whose start it was applied
+    std::optional<std::uint64_t> id; ///< the new body, for a spawn
+
+    bool operator==(ack const&) const = default;
+};
+
+/// A message was refused. Also what decode() gives for text it cannot accept.
+struct error
+{
+    static constexpr std::string_view type = "error";
+    std::optional<std::uint64_t> ref; ///< the command's ref, when it could be read
+    error_code code = error_code::bad_message;
+    std::string message; ///< for people: the field (a JSON pointer) and what was wrong
+
+    bool operator==(error const&) const = default;
+};
+
+/// Every body at one tick, as columns: entry i of each column belongs to body i.
+struct body_columns
+{
+    std::vector<std::uint64_t> id;
+    std::vector<double> position;              ///< m, 3 per body: x0 y0 z0 x1 y1 z1 ...
+    std::vector<double> velocity;              ///< m/s, 3 per body
+    std::vector<double> radius;                ///< m
+    std::optional<std::vector<double>> mass;   ///< kg, when the scene has masses to show
+    std::optional<std::vector<double>> charge; ///< C, when the scene has charges
+
+    std::size_t size() const { return id.size(); }
+    bool operator==(body_columns const&) const = default;
+};
+
+struct snapshot
+{
+    static constexpr std::string_view type = "snapshot";
+    std::uint64_t tick = 0; ///< ticks completed
+    double time = 0.0;      ///< s of simulated time
+    body_columns bodies;
+
+    bool operator==(snapshot const&) const = default;
+};
+
+struct pong
+{
+    static constexpr std::string_view type = "pong";
+    std::uint64_t ref = 0;
+    std::uint64_t tick = 0; ///< the tick the server was at when it answered
+
+    bool operator==(pong const&) const = default;
+};
+
+using server_message = std::variant<welcome, ack, error, snapshot, pong>;
+
+} // namespace kugel::protocol
