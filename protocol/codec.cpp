@@ -1,0 +1,803 @@
+#include "codec.hpp"
+
+#include <charconv>
+#include <cmath>
+#include <cstddef>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <tuple>
+#include <type_traits>
+#include <utility>
+#include <vector>
+
+namespace kugel::protocol {
+
+// Keeps the order fields are written in, so `type` comes first on the wire.
+using json = nlohmann::ordered_json;
+
+namespace {
+
+// Text ------------------------------------------------------------------------------------
+
+/// The shortest text that reads back as the same double.
+std::string format(double x)
+{
+    std::array<char, 32> buffer{};
+    auto const [end, ec] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), x);
+    return std::string(buffer.data(), end);
+}
+
+/// Writes `value` as JSON text. Strings from a client (echoed in error messages) may hold
+/// invalid UTF-8; it becomes U+FFFD rather than an exception.
+std::string dump(json const& value)
+{
+    return value.dump(-1, ' ', false, json::error_handler_t::replace);
+}
+
+/// At most `limit` bytes of `text`, cut at a character boundary, "..." marking a cut.
+std::string shortened(std::string text, std::size_t limit = 40)
+{
+    if (text.size() <= limit)
+        return text;
+    std::size_t end = limit - 3;
+    auto const continues_a_character = [](char c) {
+        return (static_cast<unsigned char>(c) & 0xC0U) == 0x80U;
+    };
+    while (end > 0 && continues_a_character(text[end]))
+        --end;
+    return text.substr(0, end) + "...";
+}
+
+/// A short description of a value for messages: "string \"0.1\"", "array of 2", "number -1".
+/// Never dumps a whole container: a message could be deep or long.
+std::string describe(json const& value)
+{
+    switch (value.type()) {
+    case json::value_t::object:
+        return "object";
+    case json::value_t::array:
+        return "array of " + std::to_string(value.size());
+    case json::value_t::string:
+        return "string " + dump(json(shortened(value.get_ref<std::string const&>())));
+    case json::value_t::null:
+        return "null";
+    default:
+        return std::string(value.type_name()) + " " + dump(value);
+    }
+}
+
+/// A JSON pointer segment (RFC 6901): '~' becomes "~0", '/' becomes "~1".
+std::string escaped(std::string_view key)
+{
+    std::string out;
+    for (char const c : key) {
+        if (c == '~')
+            out += "~0";
+        else if (c == '/')
+            out += "~1";
+        else
+            out += c;
+    }
+    return out;
+}
+
+// Where a refusal happened ----------------------------------------------------------------
+
+/// A message that cannot be accepted; decode turns it into an `error`.
+struct refusal
+{
+    error_code code;
+    std::string message;
+};
+
+/// Where we are in the message, as a JSON pointer, for messages.
+struct location
+{
+    std::string pointer;
+
+    location operator/(std::string_view key) const { return {pointer + "/" + escaped(key)}; }
+    location operator/(std::size_t index) const { return {pointer + "/" + std::to_string(index)}; }
+
+    [[noreturn]] void fail(error_code code, std::string_view reason) const
+    {
+        throw refusal{code, (pointer.empty() ? "/" : pointer) + ": " + std::string(reason)};
+    }
+};
+
+// Field tables ----------------------------------------------------------------------------
+
+template <class T> struct optional_traits
+{
+    using value_type = T;
+    static constexpr bool is_optional = false;
+};
+template <class T> struct optional_traits<std::optional<T>>
+{
+    using value_type = T;
+    static constexpr bool is_optional = true;
+};
+
+/// One member and its wire name. A std::optional member may be absent; another member must
+/// be present unless `defaulted`. `check`, when set, refuses values out of range.
+template <class T, class M> struct field
+{
+    using value_type = typename optional_traits<M>::value_type;
+
+    std::string_view name;
+    M T::*member;
+    bool defaulted = false;
+    void (*check)(value_type const&, location const&) = nullptr;
+};
+
+template <class T, class M>
+constexpr field<T, M> member(std::string_view name, M T::*pointer,
+                             void (*check)(typename field<T, M>::value_type const&,
+                                           location const&) = nullptr)
+{
+    return {name, pointer, false, check};
+}
+
+/// A member that may be absent on the wire; it keeps the default the struct gives it.
+template <class T, class M> constexpr field<T, M> with_default(std::string_view name, M T::*pointer)
+{
+    return {name, pointer, true, nullptr};
+}
+
+void at_least_zero(double const& x, location const& at)
+{
+    if (!(x >= 0.0))
+        at.fail(error_code::bad_value, "must be >= 0, got " + format(x));
+}
+
+void above_zero(double const& x, location const& at)
+{
+    if (!(x > 0.0))
+        at.fail(error_code::bad_value, "must be > 0, got " + format(x));
+}
+
+void zero_to_one(double const& x, location const& at)
+{
+    if (!(x >= 0.0 && x <= 1.0))
+        at.fail(error_code::bad_value, "must be between 0 and 1, got " + format(x));
+}
+
+void each_at_least_zero(vec3 const& v, location const& at)
+{
+    for (std::size_t i = 0; i < v.size(); ++i)
+        at_least_zero(v[i], at / i);
+}
+
+void spoken_protocol(int const& version, location const& at)
+{
+    if (version != protocol_version)
+        at.fail(error_code::unsupported_protocol, "protocol " + std::to_string(version) +
+                                                      " is not spoken here (this side speaks " +
+                                                      std::to_string(protocol_version) + ")");
+}
+
+// The one table of wire names: every struct's fields, in the order they are written.
+
+constexpr auto fields(std::type_identity<hello>)
+{
+    return std::tuple{member("protocol", &hello::protocol, spoken_protocol),
+                      member("name", &hello::name)};
+}
+
+constexpr auto fields(std::type_identity<body_spec>)
+{
+    return std::tuple{member("position", &body_spec::position),
+                      with_default("velocity", &body_spec::velocity),
+                      member("radius", &body_spec::radius, at_least_zero),
+                      member("mass", &body_spec::mass, above_zero),
+                      member("density", &body_spec::density, above_zero),
+                      with_default("charge", &body_spec::charge)};
+}
+
+constexpr auto fields(std::type_identity<spawn>)
+{
+    return std::tuple{member("ref", &spawn::ref), member("body", &spawn::body)};
+}
+
+constexpr auto fields(std::type_identity<impulse>)
+{
+    return std::tuple{member("ref", &impulse::ref), member("id", &impulse::id),
+                      member("impulse", &impulse::impulse)};
+}
+
+constexpr auto fields(std::type_identity<remove>)
+{
+    return std::tuple{member("ref", &remove::ref), member("id", &remove::id)};
+}
+
+constexpr auto fields(std::type_identity<ping>)
+{
+    return std::tuple{member("ref", &ping::ref)};
+}
+
+constexpr auto fields(std::type_identity<wall>)
+{
+    return std::tuple{member("normal", &wall::normal), member("offset", &wall::offset),
+                      member("damping", &wall::damping, zero_to_one),
+                      member("friction", &wall::friction, zero_to_one)};
+}
+
+constexpr auto fields(std::type_identity<obstacle>)
+{
+    return std::tuple{member("centre", &obstacle::centre),
+                      member("half_extents", &obstacle::half_extents, each_at_least_zero),
+                      member("axes", &obstacle::axes)};
+}
+
+constexpr auto fields(std::type_identity<world_bounds>)
+{
+    return std::tuple{member("centre", &world_bounds::centre),
+                      member("radius", &world_bounds::radius, at_least_zero)};
+}
+
+constexpr auto fields(std::type_identity<scene_geometry>)
+{
+    return std::tuple{
+        member("name", &scene_geometry::name), member("walls", &scene_geometry::walls),
+        member("obstacles", &scene_geometry::obstacles), member("bounds", &scene_geometry::bounds)};
+}
+
+constexpr auto fields(std::type_identity<session_limits>)
+{
+    return std::tuple{member("max_message_bytes", &session_limits::max_message_bytes),
+                      member("max_bodies", &session_limits::max_bodies),
+                      member("commands_per_second", &session_limits::commands_per_second)};
+}
+
+constexpr auto fields(std::type_identity<welcome>)
+{
+    return std::tuple{member("protocol", &welcome::protocol, spoken_protocol),
+                      member("client", &welcome::client),
+                      member("room", &welcome::room),
+                      member("tick_rate", &welcome::tick_rate, above_zero),
+                      member("dt", &welcome::dt, above_zero),
+                      member("snapshot_rate", &welcome::snapshot_rate, above_zero),
+                      member("scene", &welcome::scene),
+                      member("limits", &welcome::limits)};
+}
+
+constexpr auto fields(std::type_identity<ack>)
+{
+    return std::tuple{member("ref", &ack::ref), member("tick", &ack::tick), member("id", &ack::id)};
+}
+
+constexpr auto fields(std::type_identity<error>)
+{
+    return std::tuple{member("ref", &error::ref), member("code", &error::code),
+                      member("message", &error::message)};
+}
+
+constexpr auto fields(std::type_identity<body_columns>)
+{
+    return std::tuple{member("id", &body_columns::id),
+                      member("position", &body_columns::position),
+                      member("velocity", &body_columns::velocity),
+                      member("radius", &body_columns::radius),
+                      member("mass", &body_columns::mass),
+                      member("charge", &body_columns::charge)};
+}
+
+constexpr auto fields(std::type_identity<snapshot>)
+{
+    return std::tuple{member("tick", &snapshot::tick), member("time", &snapshot::time),
+                      member("bodies", &snapshot::bodies)};
+}
+
+constexpr auto fields(std::type_identity<pong>)
+{
+    return std::tuple{member("ref", &pong::ref), member("tick", &pong::tick)};
+}
+
+template <class T>
+concept has_fields = requires
+{
+    fields(std::type_identity<T>{});
+};
+
+// Rules that involve more than one field, checked once all of a struct's fields are read.
+
+template <class T> void check_together(T const&, location const&) {}
+
+void check_together(body_spec const& body, location const& at)
+{
+    if (body.mass && body.density)
+        at.fail(error_code::bad_value, "give either mass or density, not both");
+    if (!body.mass && !body.density)
+        at.fail(error_code::missing_field, "needs a mass (kg) or a density (kg/m^3)");
+    if (body.density && !(body.radius > 0.0))
+        (at / "density")
+            .fail(error_code::bad_value, "needs a radius > 0 (a point mass has no volume; give "
+                                         "mass)");
+}
+
+void check_together(body_columns const& bodies, location const& at)
+{
+    std::size_t const n = bodies.size();
+    auto const expect = [&](std::size_t size, std::string_view column, std::size_t per_body) {
+        if (size != per_body * n)
+            (at / column)
+                .fail(error_code::bad_value, "must hold " + std::to_string(per_body * n) +
+                                                 " numbers (" + std::to_string(per_body) +
+                                                 " for each of the " + std::to_string(n) +
+                                                 " ids), got " + std::to_string(size));
+    };
+    expect(bodies.position.size(), "position", 3);
+    expect(bodies.velocity.size(), "velocity", 3);
+    expect(bodies.radius.size(), "radius", 1);
+    if (bodies.mass)
+        expect(bodies.mass->size(), "mass", 1);
+    if (bodies.charge)
+        expect(bodies.charge->size(), "charge", 1);
+}
+
+// Reading ---------------------------------------------------------------------------------
+
+double number(json const& value, location const& at)
+{
+    if (!value.is_number())
+        at.fail(error_code::wrong_type, "must be a number, got " + describe(value));
+    double const x = value.get<double>();
+    if (!std::isfinite(x))
+        at.fail(error_code::not_finite, "must be finite, got " + format(x));
+    return x;
+}
+
+/// A whole number that a double holds exactly: 0 ... 2^53 − 1. 7.0 counts as 7.
+std::uint64_t safe_integer(json const& value, location const& at)
+{
+    if (!value.is_number())
+        at.fail(error_code::wrong_type, "must be a whole number, got " + describe(value));
+    auto const refuse = [&] {
+        at.fail(error_code::bad_value, "must be a whole number from 0 to " +
+                                           std::to_string(max_safe_integer) + ", got " +
+                                           dump(value));
+    };
+    if (value.is_number_unsigned()) {
+        auto const n = value.get<std::uint64_t>();
+        if (n > max_safe_integer)
+            refuse();
+        return n;
+    }
+    if (value.is_number_integer())
+        refuse(); // negative: non-negative integers are parsed as unsigned
+    double const x = value.get<double>();
+    if (!(x >= 0.0 && x <= static_cast<double>(max_safe_integer) && x == std::floor(x)))
+        refuse();
+    return static_cast<std::uint64_t>(x);
+}
+
+void read_value(json const& value, location const& at, double& out)
+{
+    out = number(value, at);
+}
+
+void read_value(json const& value, location const& at, std::uint64_t& out)
+{
+    out = safe_integer(value, at);
+}
+
+void read_value(json const& value, location const& at, int& out)
+{
+    std::uint64_t const n = safe_integer(value, at);
+    if (n > static_cast<std::uint64_t>(std::numeric_limits<int>::max()))
+        at.fail(error_code::bad_value, "must be at most " +
+                                           std::to_string(std::numeric_limits<int>::max()) +
+                                           ", got " + std::to_string(n));
+    out = static_cast<int>(n);
+}
+
+void read_value(json const& value, location const& at, std::string& out)
+{
+    if (!value.is_string())
+        at.fail(error_code::wrong_type, "must be a string, got " + describe(value));
+    out = value.get<std::string>();
+}
+
+void read_value(json const& value, location const& at, error_code& out)
+{
+    if (!value.is_string())
+        at.fail(error_code::wrong_type, "must be a string, got " + describe(value));
+    auto const code = error_code_named(value.get_ref<std::string const&>());
+    if (!code)
+        at.fail(error_code::bad_value, "unknown error code " + describe(value));
+    out = *code;
+}
+
+template <class E, std::size_t N>
+void read_value(json const& value, location const& at, std::array<E, N>& out);
+template <class E> void read_value(json const& value, location const& at, std::vector<E>& out);
+template <class T>
+requires has_fields<T>
+void read_value(json const& value, location const& at, T& out);
+
+template <class E> constexpr std::string_view items_called()
+{
+    return std::is_arithmetic_v<E> ? "numbers" : "arrays";
+}
+
+template <class E, std::size_t N>
+void read_value(json const& value, location const& at, std::array<E, N>& out)
+{
+    std::string const shape = "an array of " + std::to_string(N) + " " +
+                              std::string(items_called<E>()) +
+                              (std::is_arithmetic_v<E> && N == 3 ? " [x, y, z]" : "");
+    if (!value.is_array())
+        at.fail(error_code::wrong_type, "must be " + shape + ", got " + describe(value));
+    if (value.size() != N)
+        at.fail(error_code::bad_value, "must be " + shape + ", got " + describe(value));
+    for (std::size_t i = 0; i < N; ++i)
+        read_value(value[i], at / i, out[i]);
+}
+
+template <class E> void read_value(json const& value, location const& at, std::vector<E>& out)
+{
+    if (!value.is_array())
+        at.fail(error_code::wrong_type, "must be an array, got " + describe(value));
+    out.resize(value.size());
+    for (std::size_t i = 0; i < out.size(); ++i)
+        read_value(value[i], at / i, out[i]);
+}
+
+template <class T, class M>
+void read_field(json const& object, location const& at, T& out, field<T, M> const& f)
+{
+    location const here = at / f.name;
+    auto const found = object.find(f.name);
+    if (found == object.end()) {
+        if (!optional_traits<M>::is_optional && !f.defaulted)
+            here.fail(error_code::missing_field, "missing (required)");
+        return;
+    }
+    typename field<T, M>::value_type value{};
+    read_value(*found, here, value);
+    if (f.check)
+        f.check(value, here);
+    out.*f.member = std::move(value);
+}
+
+template <class T>
+requires has_fields<T>
+void read_value(json const& value, location const& at, T& out)
+{
+    if (!value.is_object())
+        at.fail(error_code::wrong_type, "must be an object, got " + describe(value));
+    std::apply([&](auto const&... f) { (read_field(value, at, out, f), ...); },
+               fields(std::type_identity<T>{}));
+    check_together(out, at);
+}
+
+/// The message named by `type`, one of the Variant's alternatives.
+template <class... Types>
+std::variant<Types...> read_message(json const& doc, std::type_identity<std::variant<Types...>>)
+{
+    location const root;
+    if (!doc.is_object())
+        root.fail(error_code::bad_message, "a message must be a JSON object, got " + describe(doc));
+    auto const type = doc.find("type");
+    if (type == doc.end())
+        (root / "type").fail(error_code::bad_message, "missing: every message names its type");
+    if (!type->is_string())
+        (root / "type").fail(error_code::bad_message, "must be a string, got " + describe(*type));
+    std::string const& name = type->get_ref<std::string const&>();
+
+    std::optional<std::variant<Types...>> message;
+    auto const read_if_named = [&]<class T>(std::type_identity<T>) {
+        if (!message && name == T::type) {
+            T out;
+            read_value(doc, root, out);
+            message = std::move(out);
+        }
+    };
+    (read_if_named(std::type_identity<Types>{}), ...);
+    if (!message) {
+        std::string known;
+        ((known += (known.empty() ? "" : ", ") + std::string(Types::type)), ...);
+        (root / "type")
+            .fail(error_code::unknown_type, "unknown message type " + dump(json(shortened(name))) +
+                                                " (known: " + known + ")");
+    }
+    return *std::move(message);
+}
+
+/// The message's top-level `ref`, when it is there and valid: errors echo it.
+std::optional<std::uint64_t> readable_ref(json const& doc)
+{
+    if (!doc.is_object())
+        return std::nullopt;
+    auto const ref = doc.find("ref");
+    if (ref == doc.end())
+        return std::nullopt;
+    try {
+        return safe_integer(*ref, location{});
+    } catch (refusal const&) {
+        return std::nullopt;
+    }
+}
+
+/// A second look at text that did not parse: where it failed (a JSON pointer), whether the
+/// failure was a number beyond double range, and the top-level `ref` if it came first.
+class failure_locator final : public nlohmann::json_sax<json>
+{
+  public:
+    error failure() const { return {ref_, code_, message_}; }
+
+    bool null() override { return scalar(); }
+    bool boolean(bool) override { return scalar(); }
+    bool number_integer(number_integer_t) override { return scalar(); }
+    bool number_unsigned(number_unsigned_t n) override
+    {
+        if (at_top_level_ref() && n <= max_safe_integer)
+            ref_ = n;
+        return scalar();
+    }
+    bool number_float(number_float_t x, string_t const&) override
+    {
+        if (at_top_level_ref() && x >= 0.0 && x <= static_cast<double>(max_safe_integer) &&
+            x == std::floor(x))
+            ref_ = static_cast<std::uint64_t>(x);
+        return scalar();
+    }
+    bool string(string_t&) override { return scalar(); }
+    bool binary(binary_t&) override { return scalar(); }
+
+    bool start_object(std::size_t) override { return open(false); }
+    bool key(string_t& name) override
+    {
+        frames_.back().segment = escaped(name);
+        frames_.back().inside_child = true;
+        return true;
+    }
+    bool end_object() override { return close(); }
+    bool start_array(std::size_t) override { return open(true); }
+    bool end_array() override { return close(); }
+
+    bool parse_error(std::size_t, std::string const& token, json::exception const& ex) override
+    {
+        constexpr int number_overflow = 406; // nlohmann's out_of_range.406
+        std::string const at = pointer();
+        if (ex.id == number_overflow) {
+            code_ = error_code::not_finite;
+            message_ = at + ": " + shortened(token) + " is beyond the range of a double";
+        } else {
+            code_ = error_code::bad_json;
+            std::string what = ex.what();
+            // "[json.exception.parse_error.101] parse error at line 1, column 9: ..."
+            if (auto const end = what.find("] "); end != std::string::npos)
+                what.erase(0, end + 2);
+            message_ = at + ": not valid JSON: " + shortened(what, 200);
+        }
+        return false;
+    }
+
+  private:
+    struct frame
+    {
+        bool is_array = false;
+        std::size_t next_index = 0; ///< arrays: the index of the next element
+        std::string segment;        ///< the child being read
+        bool inside_child = false;
+    };
+
+    bool at_top_level_ref() const
+    {
+        return frames_.size() == 1 && !frames_[0].is_array && frames_[0].inside_child &&
+               frames_[0].segment == "ref";
+    }
+
+    void begin_value()
+    {
+        if (!frames_.empty() && frames_.back().is_array) {
+            frames_.back().segment = std::to_string(frames_.back().next_index);
+            frames_.back().inside_child = true;
+        }
+    }
+
+    void end_value()
+    {
+        if (frames_.empty())
+            return;
+        frames_.back().inside_child = false;
+        if (frames_.back().is_array)
+            ++frames_.back().next_index;
+    }
+
+    bool scalar()
+    {
+        begin_value();
+        end_value();
+        return true;
+    }
+
+    bool open(bool is_array)
+    {
+        begin_value();
+        frames_.push_back({.is_array = is_array});
+        return true;
+    }
+
+    bool close()
+    {
+        frames_.pop_back();
+        end_value();
+        return true;
+    }
+
+    /// The value being read when parsing stopped; an array's next element if between two.
+    std::string pointer() const
+    {
+        std::string out;
+        for (auto const& f : frames_) {
+            if (f.inside_child)
+                out += "/" + f.segment;
+            else if (f.is_array && &f == &frames_.back())
+                out += "/" + std::to_string(f.next_index);
+        }
+        return out.empty() ? "/" : out;
+    }
+
+    std::vector<frame> frames_;
+    std::optional<std::uint64_t> ref_;
+    error_code code_ = error_code::bad_json;
+    std::string message_ = "/: not valid JSON";
+};
+
+template <class Variant> decode_result<Variant> decode_as(std::string_view text)
+{
+    json const doc = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
+    if (doc.is_discarded()) {
+        failure_locator locator;
+        json::sax_parse(text.begin(), text.end(), &locator);
+        return {.failure = locator.failure()};
+    }
+    try {
+        return {.message = read_message(doc, std::type_identity<Variant>{})};
+    } catch (refusal& r) {
+        return {.failure = error{readable_ref(doc), r.code, std::move(r.message)}};
+    }
+}
+
+// Writing ---------------------------------------------------------------------------------
+
+json to_value(double x)
+{
+    return x;
+}
+json to_value(std::uint64_t n)
+{
+    return n;
+}
+json to_value(int n)
+{
+    return n;
+}
+json to_value(std::string const& s)
+{
+    return s;
+}
+json to_value(error_code code)
+{
+    return name(code);
+}
+
+template <class E, std::size_t N> json to_value(std::array<E, N> const& items);
+template <class E> json to_value(std::vector<E> const& items);
+template <class T>
+requires has_fields<T> json to_value(T const& value);
+
+template <class E, std::size_t N> json to_value(std::array<E, N> const& items)
+{
+    json out = json::array();
+    for (auto const& item : items)
+        out.push_back(to_value(item));
+    return out;
+}
+
+template <class E> json to_value(std::vector<E> const& items)
+{
+    json out = json::array();
+    out.get_ref<json::array_t&>().reserve(items.size());
+    for (auto const& item : items)
+        out.push_back(to_value(item));
+    return out;
+}
+
+template <class T>
+requires has_fields<T>
+void write_fields(json& out, T const& value)
+{
+    auto const write = [&]<class M>(field<T, M> const& f) {
+        auto const& member = value.*f.member;
+        if constexpr (optional_traits<M>::is_optional) {
+            if (member)
+                out[std::string(f.name)] = to_value(*member);
+        } else {
+            out[std::string(f.name)] = to_value(member);
+        }
+    };
+    std::apply([&](auto const&... f) { (write(f), ...); }, fields(std::type_identity<T>{}));
+}
+
+template <class T>
+requires has_fields<T> json to_value(T const& value)
+{
+    json out = json::object();
+    write_fields(out, value);
+    return out;
+}
+
+template <class T> std::string encode_message(T const& message)
+{
+    json out = json::object();
+    out["type"] = T::type;
+    write_fields(out, message);
+    return dump(out);
+}
+
+} // namespace
+
+decode_result<client_message> decode(std::string_view text)
+{
+    return decode_as<client_message>(text);
+}
+
+decode_result<server_message> decode_server_message(std::string_view text)
+{
+    return decode_as<server_message>(text);
+}
+
+std::string encode(hello const& message)
+{
+    return encode_message(message);
+}
+std::string encode(spawn const& message)
+{
+    return encode_message(message);
+}
+std::string encode(impulse const& message)
+{
+    return encode_message(message);
+}
+std::string encode(remove const& message)
+{
+    return encode_message(message);
+}
+std::string encode(ping const& message)
+{
+    return encode_message(message);
+}
+std::string encode(welcome const& message)
+{
+    return encode_message(message);
+}
+std::string encode(ack const& message)
+{
+    return encode_message(message);
+}
+std::string encode(error const& message)
+{
+    return encode_message(message);
+}
+std::string encode(snapshot const& message)
+{
+    return encode_message(message);
+}
+std::string encode(pong const& message)
+{
+    return encode_message(message);
+}
+
+std::string encode(client_message const& message)
+{
+    return std::visit([](auto const& m) { return encode_message(m); }, message);
+}
+
+std::string encode(server_message const& message)
+{
+    return std::visit([](auto const& m) { return encode_message(m); }, message);
+}
+
+} // namespace kugel::protocol
