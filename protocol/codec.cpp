@@ -557,8 +557,8 @@ class failure_locator final : public nlohmann::json_sax<json>
 
     bool parse_error(std::size_t, std::string const& token, json::exception const& ex) override
     {
-        constexpr int number_overflow = 406; // nlohmann's out_of_range.406
-        std::string const at = pointer();
+        constexpr int number_overflow = 406;              // nlohmann's out_of_range.406
+        std::string const at = shortened(pointer(), 200); // text may nest deeper than any message
         if (ex.id == number_overflow) {
             code_ = error_code::not_finite;
             message_ = at + ": " + shortened(token) + " is beyond the range of a double";

@@ -1,0 +1,90 @@
+#pragma once
+
+// One or more filled-in messages of every type, with every optional field both present and
+// absent somewhere, for round trips and schema checks.
+
+#include "protocol/messages.hpp"
+
+#include <cmath>
+#include <numbers>
+#include <vector>
+
+namespace kugel::protocol::samples {
+
+inline std::vector<client_message> client_messages()
+{
+    return {
+        hello{},
+        hello{.protocol = protocol_version, .name = "orbit-viewer"},
+        spawn{.ref = 1, .body = {.position = {0.0, 0.0, 2.0}, .radius = 0.1, .mass = 2.5}},
+        spawn{.ref = 2,
+              .body = {.position = {1.0, -2.0, 3.5},
+                       .velocity = {1.5, 0.0, -0.25},
+                       .radius = 0.05,
+                       .density = 7800.0,
+                       .charge = -1e-6}},
+        impulse{.ref = 3, .id = 17, .impulse = {0.0, 0.0, 0.25}},
+        remove{.ref = 4, .id = 0},
+        ping{.ref = max_safe_integer},
+    };
+}
+
+inline welcome sample_welcome()
+{
+    double const c = std::cos(0.3);
+    double const s = std::sin(0.3);
+    return {
+        .client = 3,
+        .room = "default",
+        .tick_rate = 60.0,
+        .dt = 1.0 / 60.0,
+        .snapshot_rate = 30.0,
+        .scene =
+            {.name = "pile",
+             .walls = {{.normal = {0.0, 0.0, 1.0}, .offset = 0.0, .damping = 0.2, .friction = 0.1},
+                       {.normal = {-1.0, 0.0, 0.0}, .offset = -5.0}},
+             .obstacles = {{.centre = {0.0, 0.0, 0.5},
+                            .half_extents = {1.0, 0.5, 0.25},
+                            .axes = {{{c, s, 0.0}, {-s, c, 0.0}, {0.0, 0.0, 1.0}}}}},
+             .bounds = {.centre = {0.0, 0.0, 2.0}, .radius = 5.0}},
+        .limits = {.max_message_bytes = 65536, .max_bodies = 10000, .commands_per_second = 100},
+    };
+}
+
+inline std::vector<server_message> server_messages()
+{
+    return {
+        sample_welcome(),
+        welcome{.client = 0,
+                .room = "empty",
+                .tick_rate = 1000.0,
+                .dt = 1e-3,
+                .snapshot_rate = 7.5,
+                .scene = {.name = "", .bounds = {.radius = 0.0}},
+                .limits = {.max_message_bytes = 1, .max_bodies = 0, .commands_per_second = 0}},
+        ack{.ref = 1, .tick = 1204, .id = 17},
+        ack{.ref = 3, .tick = 1210},
+        error{.ref = 1,
+              .code = error_code::bad_value,
+              .message = "/body/radius: must be >= 0, got -1"},
+        error{.code = error_code::rate_limited, .message = "slow down"},
+        snapshot{.tick = 1204,
+                 .time = 1204.0 / 60.0,
+                 .bodies = {.id = {4, 17, max_safe_integer},
+                            .position = {0.0, 0.0, 0.1, 0.5, -0.25, 1.75, 1e300, -1e-300, 0.0},
+                            .velocity = {0.0, 0.0, 0.0, 1.5, 0.0, -3.2, 0.1, 0.2, 0.3},
+                            .radius = {0.1, 0.1, 0.0}}},
+        snapshot{.tick = 7,
+                 .time = 0.07,
+                 .bodies = {.id = {0, 1},
+                            .position = {1.0, 2.0, 3.0, 4.0, 5.0, 6.0},
+                            .velocity = {-1.0, -2.0, -3.0, -4.0, -5.0, -6.0},
+                            .radius = {0.0, 0.5},
+                            .mass = std::vector{1.0, std::numbers::pi},
+                            .charge = std::vector{-1.6e-19, 1.6e-19}}},
+        snapshot{},
+        pong{.ref = 5, .tick = 1207},
+    };
+}
+
+} // namespace kugel::protocol::samples
