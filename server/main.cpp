@@ -1,10 +1,14 @@
-// kugel-server: steps a scene's world. With --headless it runs a fixed number of steps
-// without networking and prints one JSON summary on stdout; logs go to stderr.
+// kugel-server: hosts rooms, each a scene's world stepped at a fixed tick, and serves them
+// over WebSocket (and the page over HTTP) on one port. With --headless it runs one scene a
+// fixed number of steps without networking and prints one JSON summary on stdout. Logs go
+// to stderr.
 
 #include "headless.hpp"
 #include "scene/scene.hpp"
+#include "server.hpp"
 
 #include <CLI/CLI.hpp>
+#include <boost/system/system_error.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
@@ -44,6 +48,44 @@ int run_headless_command(std::string const& scene_file, std::vector<std::string>
     return 0;
 }
 
+/// "NAME=SCENE" into a room_spec.
+kugel::server::room_spec parse_room(std::string const& text)
+{
+    auto const equals = text.find('=');
+    if (equals == std::string::npos || equals == 0 || equals + 1 == text.size())
+        throw CLI::ValidationError("--room", "expected NAME=SCENE, got '" + text + "'");
+    return {text.substr(0, equals), text.substr(equals + 1)};
+}
+
+int serve(kugel::server::server_options const& options)
+{
+    using namespace kugel;
+    try {
+        server::server s(options);
+        s.stop_on_signals();
+        s.start();
+        spdlog::info("serving on http://{}:{}/ (WebSocket /ws, /ws/ROOM; health /healthz){}",
+                     options.host, s.port(),
+                     options.web_root.empty() ? " without a web root"
+                                              : ", page from " + options.web_root.string());
+        s.wait();
+        spdlog::info("stopped");
+        return 0;
+    } catch (scene::scene_error const& e) {
+        spdlog::error("{}", e.what());
+        return 2;
+    } catch (std::invalid_argument const& e) {
+        spdlog::error("{}", e.what());
+        return 2;
+    } catch (boost::system::system_error const& e) {
+        spdlog::error("cannot listen on {}:{}: {}", options.host, options.port, e.code().message());
+        return 1;
+    } catch (physics::singular_force_error const& e) {
+        spdlog::error("a room's scene is singular at the start: {}", e.what());
+        return 1;
+    }
+}
+
 } // namespace
 
 int main(int argc, char** argv)
@@ -58,6 +100,9 @@ int main(int argc, char** argv)
     std::uint64_t steps = 1000;
     std::vector<std::string> overrides;
     std::string log_level = "info";
+    std::vector<std::string> rooms;
+    kugel::server::server_options options;
+    std::string web_root;
     app.add_option("--scene", scene_file, "Scene file (JSON), see scenes/README.md")
         ->check(CLI::ExistingFile);
     app.add_flag("--headless", headless,
@@ -73,12 +118,42 @@ int main(int argc, char** argv)
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical or off")
         ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
         ->capture_default_str();
+    app.add_option("--room", rooms,
+                   "Host a room NAME=SCENE (repeatable), reached at /ws/NAME; without any,\n"
+                   "one room 'default' with the built-in arena scene at /ws");
+    app.add_option("--host", options.host, "Address to listen on")->capture_default_str();
+    app.add_option("--port", options.port, "Port to listen on (0: any free port)")
+        ->capture_default_str();
+    app.add_option("--tick-rate", options.tick_rate, "World steps per second (Hz)")
+        ->check(CLI::Range(0.001, 10000.0))
+        ->capture_default_str();
+    app.add_option("--snapshot-rate", options.snapshot_rate,
+                   "Snapshots per second (Hz), at most the tick rate")
+        ->check(CLI::Range(0.001, 10000.0))
+        ->capture_default_str();
+    app.add_option("--web-root", web_root, "Directory of the page's static files")
+        ->check(CLI::ExistingDirectory);
+    app.add_option("--max-bodies", options.max_bodies, "Bodies per room before spawns are refused")
+        ->capture_default_str();
+    app.add_option("--threads", options.threads, "Network and room threads (0: one per core)")
+        ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
     spdlog::set_level(spdlog::level::from_str(log_level));
 
     if (!headless) {
-        spdlog::error("serving over the network is not built yet; run a scene with --headless");
-        return 2;
+        if (!scene_file.empty() || !overrides.empty()) {
+            spdlog::error("--scene and --set go with --headless; to serve a scene use --room NAME=FILE");
+            return 2;
+        }
+        try {
+            for (std::string const& r : rooms)
+                options.rooms.push_back(parse_room(r));
+        } catch (CLI::ValidationError const& e) {
+            spdlog::error("{}", e.what());
+            return 2;
+        }
+        options.web_root = web_root;
+        return serve(options);
     }
     if (scene_file.empty()) {
         spdlog::error("--headless needs --scene FILE");

@@ -1,0 +1,184 @@
+#include "http_session.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <chrono>
+
+namespace kugel::server {
+
+namespace {
+
+constexpr std::size_t max_request_body = 8 * 1024; // bytes; GET requests carry none
+constexpr auto request_timeout = std::chrono::seconds(30);
+
+template <class Body>
+void finish(http::response<Body>& response, http::request<http::string_body> const& request,
+            std::string_view content_type)
+{
+    response.set(http::field::server, "kugel-server");
+    response.set(http::field::content_type, content_type);
+    response.keep_alive(request.keep_alive());
+}
+
+http::response<http::string_body> text_response(http::request<http::string_body> const& request,
+                                                http::status status, std::string body,
+                                                std::string_view content_type = "text/plain")
+{
+    http::response<http::string_body> response{status, request.version()};
+    finish(response, request, content_type);
+    response.body() = std::move(body);
+    response.prepare_payload();
+    if (request.method() == http::verb::head)
+        response.body().clear(); // Content-Length stays that of the GET
+    return response;
+}
+
+/// The file a request path names under the web root, or nullopt for a path that tries to
+/// leave it or names no regular file.
+std::optional<std::filesystem::path> file_for(std::filesystem::path const& root,
+                                              std::string_view target)
+{
+    std::string_view path = target.substr(0, target.find_first_of("?#"));
+    if (path.empty() || path.front() != '/' || path.find("..") != std::string_view::npos ||
+        path.find('\0') != std::string_view::npos || path.find('\\') != std::string_view::npos)
+        return std::nullopt;
+    std::filesystem::path file = root / std::filesystem::path(path.substr(1));
+    std::error_code ec;
+    if (std::filesystem::is_directory(file, ec))
+        file /= "index.html";
+    if (!std::filesystem::is_regular_file(file, ec))
+        return std::nullopt;
+    return file;
+}
+
+} // namespace
+
+std::optional<std::string> room_of_target(std::string_view target)
+{
+    std::string_view path = target.substr(0, target.find_first_of("?#"));
+    if (path == "/ws" || path == "/ws/")
+        return "default";
+    if (path.starts_with("/ws/") && path.find('/', 4) == std::string_view::npos)
+        return std::string(path.substr(4));
+    return std::nullopt;
+}
+
+std::string_view mime_type(std::string_view path)
+{
+    auto const ends_with = [&](std::string_view ext) { return path.ends_with(ext); };
+    if (ends_with(".html") || ends_with(".htm"))
+        return "text/html; charset=utf-8";
+    if (ends_with(".js") || ends_with(".mjs"))
+        return "text/javascript; charset=utf-8";
+    if (ends_with(".css"))
+        return "text/css; charset=utf-8";
+    if (ends_with(".json") || ends_with(".map"))
+        return "application/json";
+    if (ends_with(".svg"))
+        return "image/svg+xml";
+    if (ends_with(".png"))
+        return "image/png";
+    if (ends_with(".ico"))
+        return "image/vnd.microsoft.icon";
+    if (ends_with(".txt") || ends_with(".md"))
+        return "text/plain; charset=utf-8";
+    return "application/octet-stream";
+}
+
+http_session::http_session(tcp::socket&& socket, std::shared_ptr<http_routes const> routes)
+    : stream_(std::move(socket)), routes_(std::move(routes))
+{
+}
+
+void http_session::run()
+{
+    net::dispatch(stream_.get_executor(),
+                  beast::bind_front_handler(&http_session::do_read, shared_from_this()));
+}
+
+void http_session::do_read()
+{
+    parser_.emplace();
+    parser_->body_limit(max_request_body);
+    stream_.expires_after(request_timeout);
+    http::async_read(stream_, buffer_, *parser_,
+                     beast::bind_front_handler(&http_session::on_read, shared_from_this()));
+}
+
+void http_session::on_read(beast::error_code ec, std::size_t)
+{
+    if (ec == http::error::end_of_stream)
+        return do_close();
+    if (ec)
+        return fail(ec, "http read");
+
+    http::request<http::string_body> request = parser_->release();
+    if (websocket::is_upgrade(request)) {
+        auto const room_name = room_of_target(request.target());
+        auto target_room = room_name ? routes_->find_room(*room_name) : nullptr;
+        if (!target_room)
+            return send(text_response(request, http::status::not_found,
+                                      "no room at " + std::string(request.target()) + "\n"));
+        stream_.expires_never(); // the WebSocket session keeps its own timeouts
+        routes_->upgrade(stream_.release_socket(), std::move(target_room), std::move(request));
+        return;
+    }
+    if (request.method() != http::verb::get && request.method() != http::verb::head)
+        return send(text_response(request, http::status::method_not_allowed,
+                                  "only GET and HEAD are served\n"));
+    std::string_view const target = request.target();
+    if (target == "/healthz")
+        return send(text_response(request, http::status::ok, routes_->health(), "application/json"));
+
+    auto const file = routes_->web_root.empty() ? std::nullopt : file_for(routes_->web_root, target);
+    if (!file)
+        return send(text_response(request, http::status::not_found,
+                                  "not found: " + std::string(target) + "\n"));
+    beast::error_code open_ec;
+    http::file_body::value_type body;
+    body.open(file->c_str(), beast::file_mode::scan, open_ec);
+    if (open_ec)
+        return send(text_response(request, http::status::internal_server_error,
+                                  "cannot read " + std::string(target) + "\n"));
+    auto const size = body.size();
+    if (request.method() == http::verb::head) {
+        http::response<http::empty_body> response{http::status::ok, request.version()};
+        finish(response, request, mime_type(file->string()));
+        response.content_length(size);
+        return send(std::move(response));
+    }
+    http::response<http::file_body> response{std::piecewise_construct, std::make_tuple(std::move(body)),
+                                              std::make_tuple(http::status::ok, request.version())};
+    finish(response, request, mime_type(file->string()));
+    response.set(http::field::cache_control, "no-cache");
+    response.content_length(size);
+    send(std::move(response));
+}
+
+template <class Body>
+void http_session::send(http::response<Body>&& response)
+{
+    auto message = std::make_shared<http::response<Body>>(std::move(response));
+    response_ = message;
+    http::async_write(stream_, *message,
+                      beast::bind_front_handler(&http_session::on_write, shared_from_this(),
+                                                message->keep_alive()));
+}
+
+void http_session::on_write(bool keep_alive, beast::error_code ec, std::size_t)
+{
+    if (ec)
+        return fail(ec, "http write");
+    response_.reset();
+    if (!keep_alive)
+        return do_close();
+    do_read();
+}
+
+void http_session::do_close()
+{
+    beast::error_code ec;
+    stream_.socket().shutdown(tcp::socket::shutdown_send, ec);
+}
+
+} // namespace kugel::server

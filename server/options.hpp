@@ -1,0 +1,45 @@
+#pragma once
+
+#include <chrono>
+#include <cstddef>
+#include <cstdint>
+#include <filesystem>
+#include <string>
+#include <vector>
+
+namespace kugel::server {
+
+/// A room to host: `--room NAME=SCENE`.
+struct room_spec
+{
+    std::string name;                 ///< the room's name, as in /ws/NAME
+    std::filesystem::path scene_file; ///< its scene (JSON)
+};
+
+/// What one client may do. Every limit has a clear answer when reached (protocol/PROTOCOL.md).
+struct client_limits
+{
+    std::size_t max_message_bytes = 64 * 1024; ///< inbound frame size; larger: close 1009
+    double commands_per_second = 200.0;         ///< sustained; larger: error rate_limited
+    double command_burst = 200.0;               ///< commands allowed at once after a pause
+    std::size_t max_queued_replies = 256;       ///< acks and errors not yet sent; more: close 1008
+    std::chrono::milliseconds write_stall{5000}; ///< a send pending this long: the client is
+                                                 ///< not reading, and is disconnected
+};
+
+struct server_options
+{
+    std::string host = "127.0.0.1";
+    std::uint16_t port = 8080;   ///< 0 picks a free port (tests)
+    double tick_rate = 60.0;     ///< Hz, world steps per second of wall time
+    double snapshot_rate = 30.0; ///< Hz, <= tick_rate
+    std::filesystem::path web_root; ///< static files served over HTTP; empty serves none
+    std::vector<room_spec> rooms;   ///< empty: one room "default" with the built-in scene
+    std::size_t max_bodies = 20'000; ///< per room; a spawn beyond it: error room_full
+    std::size_t threads = 0;         ///< 0: one per core
+    /// After a stop, how long closing handshakes may take before the rest is cut off.
+    std::chrono::milliseconds shutdown_grace{1000};
+    client_limits client;
+};
+
+} // namespace kugel::server

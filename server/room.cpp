@@ -1,0 +1,357 @@
+#include "room.hpp"
+
+#include "websocket_session.hpp"
+
+#include "physics/obb.hpp"
+#include "protocol/codec.hpp"
+
+#include <spdlog/spdlog.h>
+
+#include <algorithm>
+#include <cmath>
+
+namespace kugel::server {
+
+namespace {
+
+using protocol::error_code;
+
+protocol::vec3 to_wire(physics::vec3 const& v) { return {v.x(), v.y(), v.z()}; }
+physics::vec3 from_wire(protocol::vec3 const& v) { return {v[0], v[1], v[2]}; }
+
+/// The static part of every welcome: what the room's scene looks like.
+protocol::welcome make_welcome(std::string const& room_name, scene::scene const& s,
+                               physics::world const& w, room::settings const& config)
+{
+    protocol::welcome welcome;
+    welcome.room = room_name;
+    welcome.tick_rate = config.tick_rate;
+    welcome.dt = s.dt;
+    welcome.snapshot_rate = config.snapshot_rate;
+    welcome.scene.name = s.name;
+    for (physics::wall const& wall : w.walls())
+        welcome.scene.walls.push_back({to_wire(wall.surface.normal), wall.surface.offset,
+                                       wall.damping, wall.friction});
+    for (physics::obstacle const& o : w.obstacles()) {
+        protocol::obstacle box;
+        box.centre = to_wire(o.box.centre);
+        box.half_extents = to_wire(o.box.half_extents);
+        for (int k = 0; k < 3; ++k)
+            box.axes[static_cast<std::size_t>(k)] = to_wire(o.box.axes.col(k));
+        welcome.scene.obstacles.push_back(box);
+    }
+    physics::sphere const bounds = scene::scene_bounds(s, w);
+    welcome.scene.bounds = {to_wire(bounds.centre), bounds.radius};
+    welcome.limits = {config.client.max_message_bytes, config.max_bodies,
+                      static_cast<std::uint64_t>(config.client.commands_per_second)};
+    return welcome;
+}
+
+std::shared_ptr<std::string const> share(std::string text)
+{
+    return std::make_shared<std::string const>(std::move(text));
+}
+
+std::shared_ptr<std::string const> refusal(std::uint64_t ref, error_code code, std::string message)
+{
+    return share(protocol::encode(protocol::error{ref, code, std::move(message)}));
+}
+
+std::string describe(protocol::vec3 const& v)
+{
+    return "[" + std::to_string(v[0]) + ", " + std::to_string(v[1]) + ", " + std::to_string(v[2]) + "]";
+}
+
+} // namespace
+
+room::room(net::io_context& io, std::string name, scene::scene const& s, settings config)
+    : name_(std::move(name)), settings_(config), strand_(net::make_strand(io)), timer_(strand_),
+      period_(std::chrono::duration_cast<clock::duration>(
+          std::chrono::duration<double>(1.0 / config.tick_rate))),
+      world_(scene::build_world(s)), dt_(s.dt),
+      send_masses_(s.forces.gravity.has_value()), send_charges_(s.forces.coulomb.has_value())
+{
+    welcome_ = make_welcome(name_, s, world_, settings_);
+    auto const ids = world_.bodies().ids();
+    for (physics::body_id id : ids) {
+        if (wire_id_of_index_.size() <= id.index)
+            wire_id_of_index_.resize(id.index + 1, 0);
+        wire_id_of_index_[id.index] = next_wire_id_;
+        body_of_wire_id_.emplace(next_wire_id_++, id);
+    }
+    counters_.bodies = world_.bodies().size();
+}
+
+void room::start()
+{
+    net::dispatch(strand_, [self = shared_from_this()] {
+        self->running_ = true;
+        self->next_tick_at_ = clock::now();
+        self->report_started_ = self->next_tick_at_;
+        self->schedule_next_tick();
+    });
+}
+
+void room::stop()
+{
+    net::dispatch(strand_, [self = shared_from_this()] {
+        self->running_ = false;
+        self->timer_.cancel();
+        for (member const& m : self->sessions_)
+            if (auto session = m.session.lock())
+                session->shut_down();
+    });
+}
+
+void room::join(std::shared_ptr<websocket_session> session)
+{
+    net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
+        protocol::welcome welcome = self->welcome_;
+        welcome.client = session->client_id();
+        session->send_reply(share(protocol::encode(welcome)));
+        self->sessions_.push_back({session->client_id(), session});
+        self->counters_.sessions = self->sessions_.size();
+    });
+}
+
+void room::submit(std::shared_ptr<websocket_session> from, protocol::client_message message)
+{
+    net::post(strand_, [self = shared_from_this(), from = std::move(from),
+                        message = std::move(message)]() mutable {
+        if (auto const* ping = std::get_if<protocol::ping>(&message)) {
+            from->send_reply(share(protocol::encode(protocol::pong{ping->ref, self->counters_.ticks})));
+            return;
+        }
+        self->pending_commands_.push_back({from, std::move(message)});
+    });
+}
+
+void room::on_tick(beast::error_code ec)
+{
+    if (ec || !running_)
+        return;
+    auto const started = clock::now();
+    apply_commands(std::exchange(pending_commands_, {})); // 1. in arrival order
+    step_world();                                          // 2. physics
+    std::size_t bytes = 0;
+    if (snapshot_due()) {
+        auto snapshot = encode_snapshot(); // 3. encode once, share the bytes
+        bytes = snapshot->size();
+        broadcast(snapshot);
+    }
+    record(clock::now() - started, bytes); // 4. cost
+    schedule_next_tick();
+}
+
+void room::apply_commands(std::vector<command> commands)
+{
+    for (command& c : commands) {
+        auto from = c.from.lock();
+        if (!from)
+            continue; // the client left; its commands still would apply, but nobody hears
+        std::visit(
+            [&](auto const& m) {
+                if constexpr (requires { apply(m, *from); })
+                    apply(m, *from);
+            },
+            c.message);
+    }
+}
+
+void room::apply(protocol::spawn const& spawn, websocket_session& from)
+{
+    protocol::body_spec const& body = spawn.body;
+    auto const refuse = [&](error_code code, std::string message) {
+        from.send_reply(refusal(spawn.ref, code, std::move(message)));
+    };
+    if (world_.bodies().size() >= settings_.max_bodies)
+        return refuse(error_code::room_full, "the room holds its limit of " +
+                                                 std::to_string(settings_.max_bodies) + " bodies");
+    physics::vec3 const x = from_wire(body.position);
+    for (std::size_t k = 0; k < world_.walls().size(); ++k) {
+        physics::plane const& p = world_.walls()[k].surface;
+        double const height = p.normal.dot(x) - p.offset; // m above the wall
+        if (height < 0.0)
+            return refuse(error_code::outside_world,
+                          "/body/position: " + describe(body.position) + " is behind wall " +
+                              std::to_string(k) + " (by " + std::to_string(-height) + " m)");
+        if (height < body.radius)
+            return refuse(error_code::overlaps_wall,
+                          "/body/position: a sphere of radius " + std::to_string(body.radius) +
+                              " m at " + describe(body.position) + " crosses wall " +
+                              std::to_string(k));
+    }
+    if (body.radius > 0.0) {
+        for (std::size_t k = 0; k < world_.obstacles().size(); ++k)
+            if (physics::sphere_vs_obb(x, body.radius, world_.obstacles()[k].box).touching)
+                return refuse(error_code::overlaps_wall,
+                              "/body/position: a sphere of radius " + std::to_string(body.radius) +
+                                  " m at " + describe(body.position) + " overlaps obstacle " +
+                                  std::to_string(k));
+    }
+    physics::body_desc desc;
+    desc.position = x;
+    desc.velocity = from_wire(body.velocity);
+    desc.radius = body.radius;
+    desc.charge = body.charge;
+    desc.mass = body.mass ? *body.mass : physics::mass_from_density(*body.density, body.radius);
+    if (!(desc.mass > 0.0) || !std::isfinite(1.0 / desc.mass))
+        return refuse(error_code::bad_value, "/body: the mass this gives, " +
+                                                 std::to_string(desc.mass) +
+                                                 " kg, is not a usable positive mass");
+    std::uint64_t id = 0;
+    try {
+        id = add_body(desc);
+    } catch (std::invalid_argument const& e) {
+        return refuse(error_code::bad_value, std::string("/body: ") + e.what());
+    }
+    from.send_reply(share(protocol::encode(protocol::ack{spawn.ref, counters_.ticks + 1, id})));
+}
+
+void room::apply(protocol::impulse const& impulse, websocket_session& from)
+{
+    auto const body = body_of_wire_id_.find(impulse.id);
+    if (body == body_of_wire_id_.end()) {
+        from.send_reply(refusal(impulse.ref, error_code::unknown_body,
+                                "/id: no body " + std::to_string(impulse.id) + " in this room"));
+        return;
+    }
+    world_.apply_impulse(body->second, from_wire(impulse.impulse));
+    from.send_reply(share(protocol::encode(protocol::ack{impulse.ref, counters_.ticks + 1, {}})));
+}
+
+void room::apply(protocol::remove const& remove, websocket_session& from)
+{
+    auto const body = body_of_wire_id_.find(remove.id);
+    if (body == body_of_wire_id_.end()) {
+        from.send_reply(refusal(remove.ref, error_code::unknown_body,
+                                "/id: no body " + std::to_string(remove.id) + " in this room"));
+        return;
+    }
+    world_.remove_body(body->second);
+    body_of_wire_id_.erase(body);
+    counters_.bodies = world_.bodies().size();
+    from.send_reply(share(protocol::encode(protocol::ack{remove.ref, counters_.ticks + 1, {}})));
+}
+
+std::uint64_t room::add_body(physics::body_desc const& desc)
+{
+    physics::body_id const id = world_.add_body(desc);
+    if (wire_id_of_index_.size() <= id.index)
+        wire_id_of_index_.resize(id.index + 1, 0);
+    std::uint64_t const wire_id = next_wire_id_++;
+    wire_id_of_index_[id.index] = wire_id;
+    body_of_wire_id_.emplace(wire_id, id);
+    counters_.bodies = world_.bodies().size();
+    return wire_id;
+}
+
+void room::step_world()
+{
+    try {
+        world_.step(dt_);
+        step_failed_ = false;
+    } catch (physics::singular_force_error const& e) {
+        // The world is unchanged; it stays frozen until a command (a remove) clears it.
+        if (!step_failed_)
+            spdlog::error("room '{}': the world cannot step: {}", name_, e.what());
+        step_failed_ = true;
+    }
+    ++counters_.ticks;
+}
+
+bool room::snapshot_due()
+{
+    snapshot_phase_ += settings_.snapshot_rate;
+    if (snapshot_phase_ < settings_.tick_rate)
+        return false;
+    snapshot_phase_ -= settings_.tick_rate;
+    return true;
+}
+
+std::shared_ptr<std::string const> room::encode_snapshot() const
+{
+    physics::body_storage const& bodies = world_.bodies();
+    std::size_t const n = bodies.size();
+    protocol::snapshot snapshot;
+    snapshot.tick = counters_.ticks;
+    snapshot.time = world_.time();
+    protocol::body_columns& columns = snapshot.bodies;
+    columns.id.reserve(n);
+    columns.position.reserve(3 * n);
+    columns.velocity.reserve(3 * n);
+    columns.radius.assign(bodies.radii().begin(), bodies.radii().end());
+    for (std::size_t i = 0; i < n; ++i) {
+        columns.id.push_back(wire_id_of_index_[bodies.ids()[i].index]);
+        for (int k = 0; k < 3; ++k) {
+            columns.position.push_back(bodies.positions()[i][k]);
+            columns.velocity.push_back(bodies.velocities()[i][k]);
+        }
+    }
+    if (send_masses_)
+        columns.mass.emplace(bodies.masses().begin(), bodies.masses().end());
+    if (send_charges_)
+        columns.charge.emplace(bodies.charges().begin(), bodies.charges().end());
+    return share(protocol::encode(snapshot));
+}
+
+void room::broadcast(std::shared_ptr<std::string const> const& bytes)
+{
+    std::erase_if(sessions_, [&](member const& m) {
+        auto session = m.session.lock();
+        if (session)
+            session->send_snapshot(bytes);
+        return !session; // it ended: it left the room
+    });
+    counters_.sessions = sessions_.size();
+    ++counters_.snapshots;
+}
+
+void room::record(clock::duration cost, std::size_t snapshot_bytes)
+{
+    ++report_ticks_;
+    report_cost_ += cost;
+    report_worst_ = std::max(report_worst_, cost);
+    report_bytes_ += snapshot_bytes;
+    auto const now = clock::now();
+    if (now - report_started_ < std::chrono::seconds(10))
+        return;
+    using ms = std::chrono::duration<double, std::milli>;
+    double const seconds = std::chrono::duration<double>(now - report_started_).count();
+    spdlog::info("room '{}': {} ticks in {:.1f} s, tick {:.2f} ms mean / {:.2f} ms worst, "
+                 "{} bodies, {} clients, {:.0f} snapshot bytes/s, {} late ticks in all",
+                 name_, report_ticks_, seconds,
+                 ms(report_cost_).count() / static_cast<double>(report_ticks_),
+                 ms(report_worst_).count(), world_.bodies().size(), sessions_.size(),
+                 static_cast<double>(report_bytes_) / seconds, counters_.late_ticks.load());
+    report_started_ = now;
+    report_ticks_ = 0;
+    report_cost_ = {};
+    report_worst_ = {};
+    report_bytes_ = 0;
+}
+
+void room::schedule_next_tick()
+{
+    if (!running_)
+        return;
+    // Catch up on a late tick or two, but a room more than max_behind ticks behind (too
+    // many bodies for the tick rate) drops the backlog and slows down instead of spiralling.
+    constexpr int max_behind = 4;
+    next_tick_at_ += period_;
+    auto const now = clock::now();
+    if (now - next_tick_at_ > max_behind * period_) {
+        auto const dropped = static_cast<std::uint64_t>((now - next_tick_at_) / period_);
+        counters_.late_ticks += dropped;
+        if (now - last_late_warning_ > std::chrono::seconds(10)) {
+            last_late_warning_ = now;
+            spdlog::warn("room '{}': {} ticks late, dropped them (a tick costs more than {:.1f} ms)",
+                         name_, dropped, std::chrono::duration<double, std::milli>(period_).count());
+        }
+        next_tick_at_ = now;
+    }
+    timer_.expires_at(next_tick_at_);
+    timer_.async_wait(beast::bind_front_handler(&room::on_tick, shared_from_this()));
+}
+
+} // namespace kugel::server

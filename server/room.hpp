@@ -1,0 +1,131 @@
+#pragma once
+
+#include "network.hpp"
+#include "options.hpp"
+
+#include "physics/world.hpp"
+#include "protocol/messages.hpp"
+#include "scene/scene.hpp"
+
+#include <atomic>
+#include <chrono>
+#include <cstdint>
+#include <memory>
+#include <string>
+#include <unordered_map>
+#include <vector>
+
+namespace kugel::server {
+
+class websocket_session;
+
+/// What a room tells the world outside its strand (tests, logs, /healthz): read atomically.
+struct room_counters
+{
+    std::atomic<std::uint64_t> ticks{0};      ///< ticks completed
+    std::atomic<std::uint64_t> late_ticks{0}; ///< ticks dropped because the room fell behind
+    std::atomic<std::uint64_t> bodies{0};
+    std::atomic<std::uint64_t> sessions{0};
+    std::atomic<std::uint64_t> snapshots{0};  ///< snapshots encoded and sent
+};
+
+/// One world and the clients watching it. Everything here runs on the room's strand: the
+/// world is touched by nothing else. Sessions hand it commands by posting (submit), and it
+/// answers them and sends snapshots by posting back.
+///
+/// One tick (DESIGN.md): apply the commands that arrived since the last tick in arrival
+/// order, step the world, send a snapshot when one is due (encoded once, the same bytes to
+/// every session), record the tick's cost. Ticks follow a steady clock at tick_rate; a room
+/// that falls more than a few ticks behind drops them instead of spiralling.
+class room : public std::enable_shared_from_this<room>
+{
+public:
+    struct settings
+    {
+        double tick_rate = 60.0;     ///< Hz
+        double snapshot_rate = 30.0; ///< Hz
+        std::size_t max_bodies = 20'000;
+        client_limits client;
+    };
+
+    /// Builds the scene's world; throws physics::singular_force_error if it cannot start.
+    room(net::io_context& io, std::string name, scene::scene const& s, settings config);
+
+    std::string const& name() const { return name_; }
+    room_counters const& counters() const { return counters_; }
+
+    /// Starts ticking. The room keeps itself alive while it ticks.
+    void start();
+    /// Stops ticking and closes every session with 1001 (going away).
+    void stop();
+
+    /// Adds a session; it is sent `welcome` first, then every snapshot. A session leaves
+    /// by ending: the room holds it weakly and forgets it at the next snapshot.
+    void join(std::shared_ptr<websocket_session> session);
+    /// Queues a command for the next tick (ping is answered at once).
+    void submit(std::shared_ptr<websocket_session> from, protocol::client_message command);
+
+private:
+    using clock = std::chrono::steady_clock;
+
+    struct command
+    {
+        std::weak_ptr<websocket_session> from;
+        protocol::client_message message;
+    };
+
+    void on_tick(beast::error_code ec);
+    void apply_commands(std::vector<command> commands);
+    void apply(protocol::spawn const& spawn, websocket_session& from);
+    void apply(protocol::impulse const& impulse, websocket_session& from);
+    void apply(protocol::remove const& remove, websocket_session& from);
+    void step_world();
+    bool snapshot_due();
+    std::shared_ptr<std::string const> encode_snapshot() const;
+    void broadcast(std::shared_ptr<std::string const> const& bytes);
+    void record(clock::duration cost, std::size_t snapshot_bytes);
+    void schedule_next_tick();
+
+    std::uint64_t add_body(physics::body_desc const& desc); ///< the new body's wire id
+
+    std::string name_;
+    settings settings_;
+    net::strand<net::io_context::executor_type> strand_;
+    net::steady_timer timer_;
+    clock::duration period_;
+    clock::time_point next_tick_at_;
+    bool running_ = false;
+
+    physics::world world_;
+    double dt_;                        ///< s per tick
+    protocol::welcome welcome_;        ///< all but the client id
+    bool send_masses_;
+    bool send_charges_;
+
+    // Bodies on the wire have ids 1, 2, 3, ... never reused, so a stale id can never name a
+    // new body and every id stays below 2^53 (JavaScript's exact integers).
+    std::uint64_t next_wire_id_ = 1;
+    std::vector<std::uint64_t> wire_id_of_index_; ///< by physics::body_id::index
+    std::unordered_map<std::uint64_t, physics::body_id> body_of_wire_id_;
+
+    std::vector<command> pending_commands_;
+    struct member
+    {
+        std::uint64_t client_id;
+        std::weak_ptr<websocket_session> session; ///< a session leaves when it ends
+    };
+    std::vector<member> sessions_;
+    double snapshot_phase_ = 0.0; ///< snapshot_rate accumulated per tick, due at tick_rate
+
+    room_counters counters_;
+    // For the periodic log line.
+    clock::time_point report_started_;
+    std::uint64_t report_ticks_ = 0;
+    clock::duration report_cost_{};
+    clock::duration report_worst_{};
+    std::uint64_t report_bytes_ = 0;
+    clock::time_point last_late_warning_{};
+    bool step_failed_ = false; ///< the world cannot step (a singular force); logged once
+};
+
+} // namespace kugel::server

@@ -1,0 +1,169 @@
+#include "server.hpp"
+
+#include "listener.hpp"
+#include "room.hpp"
+#include "websocket_session.hpp"
+
+#include "scene/scene.hpp"
+
+#include <nlohmann/json.hpp>
+#include <spdlog/spdlog.h>
+
+#include <boost/asio/signal_set.hpp>
+
+#include <atomic>
+#include <cmath>
+#include <map>
+#include <stdexcept>
+
+namespace kugel::server {
+
+struct server::state
+{
+    explicit state(std::size_t workers) : io(static_cast<int>(workers)), thread_count(workers) {}
+
+    net::io_context io;
+    std::map<std::string, std::shared_ptr<room>, std::less<>> rooms;
+    std::shared_ptr<listener> acceptor;
+    std::vector<std::thread> threads;
+    std::size_t thread_count;
+    std::optional<net::signal_set> signals;
+    std::optional<net::steady_timer> grace; ///< ends what is left after a stop
+    std::chrono::milliseconds shutdown_grace{1000};
+    std::atomic<bool> stopping{false};
+    std::atomic<std::uint64_t> next_client_id{1};
+};
+
+namespace {
+
+void check(server_options const& o)
+{
+    if (!(o.tick_rate > 0.0 && o.tick_rate <= 10'000.0))
+        throw std::invalid_argument("--tick-rate must be in (0, 10000] Hz");
+    if (!(o.snapshot_rate > 0.0 && o.snapshot_rate <= o.tick_rate))
+        throw std::invalid_argument("--snapshot-rate must be > 0 and <= the tick rate");
+    for (room_spec const& r : o.rooms)
+        if (r.name.empty() || r.name.find_first_of("/?#% ") != std::string::npos)
+            throw std::invalid_argument("room name '" + r.name +
+                                        "' must be non-empty, without / ? # % or spaces");
+}
+
+} // namespace
+
+namespace {
+
+std::size_t worker_count(server_options const& o)
+{
+    check(o);
+    return std::max<std::size_t>(o.threads ? o.threads : std::thread::hardware_concurrency(), 1);
+}
+
+} // namespace
+
+server::server(server_options options) : state_(std::make_unique<state>(worker_count(options)))
+{
+    state_->shutdown_grace = options.shutdown_grace;
+    room::settings const config{options.tick_rate, options.snapshot_rate, options.max_bodies,
+                                options.client};
+    auto const add_room = [&](std::string const& name, scene::scene const& s) {
+        if (state_->rooms.contains(name))
+            throw std::invalid_argument("room '" + name + "' is given twice");
+        state_->rooms.emplace(name, std::make_shared<room>(state_->io, name, s, config));
+        spdlog::info("room '{}': scene '{}', {} bodies, dt {} s", name, s.name, s.body_count(), s.dt);
+    };
+    if (options.rooms.empty())
+        add_room("default", scene::parse_scene(default_scene_text(), "built-in arena scene"));
+    for (room_spec const& r : options.rooms)
+        add_room(r.name, scene::load_scene(r.scene_file));
+
+    auto routes = std::make_shared<http_routes>();
+    routes->web_root = options.web_root;
+    state* const s = state_.get();
+    routes->find_room = [s](std::string_view name) -> std::shared_ptr<room> {
+        auto const it = s->rooms.find(name);
+        return it == s->rooms.end() ? nullptr : it->second;
+    };
+    client_limits const limits = options.client;
+    routes->upgrade = [s, limits](tcp::socket&& socket, std::shared_ptr<room> target,
+                                  http::request<http::string_body> request) {
+        if (s->stopping)
+            return; // dropping the socket closes it
+        std::make_shared<websocket_session>(std::move(socket), std::move(target), limits,
+                                            s->next_client_id++)
+            ->run(std::move(request));
+    };
+    routes->health = [s] {
+        nlohmann::ordered_json health{{"status", s->stopping ? "stopping" : "ok"}};
+        for (auto const& [name, r] : s->rooms)
+            health["rooms"][name] = {{"ticks", r->counters().ticks.load()},
+                                     {"bodies", r->counters().bodies.load()},
+                                     {"clients", r->counters().sessions.load()},
+                                     {"late_ticks", r->counters().late_ticks.load()}};
+        return health.dump() + "\n";
+    };
+    auto const address = net::ip::make_address(options.host);
+    state_->acceptor = std::make_shared<listener>(state_->io, tcp::endpoint{address, options.port},
+                                                  std::move(routes));
+}
+
+server::~server()
+{
+    stop();
+    wait();
+}
+
+std::uint16_t server::port() const { return state_->acceptor->port(); }
+
+void server::start()
+{
+    for (auto& [name, r] : state_->rooms)
+        r->start();
+    state_->acceptor->run();
+    for (std::size_t i = 0; i < state_->thread_count; ++i)
+        state_->threads.emplace_back([s = state_.get()] { s->io.run(); });
+}
+
+void server::stop_on_signals()
+{
+    state_->signals.emplace(state_->io, SIGINT, SIGTERM);
+    state_->signals->async_wait([this](beast::error_code ec, int signal) {
+        if (ec)
+            return;
+        spdlog::info("signal {}: shutting down", signal);
+        stop();
+    });
+}
+
+void server::stop()
+{
+    if (state_->stopping.exchange(true))
+        return;
+    state* const s = state_.get();
+    net::post(s->io, [s] {
+        s->acceptor->stop();
+        if (s->signals)
+            s->signals->cancel();
+        for (auto& [name, r] : s->rooms)
+            r->stop();
+        // Sessions get a moment to finish their close handshakes; idle HTTP keep-alive
+        // connections and clients that never answer are then cut off.
+        s->grace.emplace(s->io, s->shutdown_grace);
+        s->grace->async_wait([s](beast::error_code) { s->io.stop(); });
+    });
+}
+
+void server::wait()
+{
+    for (std::thread& t : state_->threads)
+        if (t.joinable())
+            t.join();
+    state_->threads.clear();
+}
+
+std::shared_ptr<room> server::find_room(std::string_view name) const
+{
+    auto const it = state_->rooms.find(name);
+    return it == state_->rooms.end() ? nullptr : it->second;
+}
+
+} // namespace kugel::server

@@ -1,0 +1,79 @@
+#pragma once
+
+#include "network.hpp"
+#include "options.hpp"
+
+#include <chrono>
+#include <cstdint>
+#include <deque>
+#include <memory>
+#include <string>
+
+namespace kugel::server {
+
+class room;
+
+/// One WebSocket client of a room. Reads commands and hands them to the room; writes what
+/// the room sends back. The outgoing side is bounded, so that nothing a client does or fails
+/// to do can hold up the tick or another client:
+///  - replies (welcome, ack, error, pong) wait in a small queue, sent before any snapshot;
+///    when the queue is full the client is closed with 1008 (policy);
+///  - snapshots take one slot: a newer one replaces one not yet sent;
+///  - a send pending longer than client_limits::write_stall means the client is not
+///    reading: the connection is dropped.
+/// All members run on the session's strand; the public functions may be called from any
+/// thread.
+class websocket_session : public std::enable_shared_from_this<websocket_session>
+{
+public:
+    websocket_session(tcp::socket&& socket, std::shared_ptr<room> joined, client_limits limits,
+                      std::uint64_t client_id);
+    ~websocket_session();
+
+    /// Accepts the upgrade request, then joins the room and starts reading.
+    void run(http::request<http::string_body> request);
+
+    /// Queues a reply (bytes of one message), ahead of snapshots.
+    void send_reply(std::shared_ptr<std::string const> bytes);
+    /// Offers a snapshot; replaces any snapshot not yet sent.
+    void send_snapshot(std::shared_ptr<std::string const> bytes);
+    /// Closes with 1001 (going away): the server is shutting down.
+    void shut_down();
+
+    std::uint64_t client_id() const { return client_id_; }
+
+private:
+    using clock = std::chrono::steady_clock;
+
+    void on_accept(beast::error_code ec);
+    void do_read();
+    void on_read(beast::error_code ec, std::size_t bytes);
+    void handle_message(std::string_view text);
+    bool take_command_token();
+
+    void queue_reply(std::shared_ptr<std::string const> bytes);
+    void queue_snapshot(std::shared_ptr<std::string const> bytes);
+    void write_next();
+    void on_write(beast::error_code ec, std::size_t bytes);
+    void close_with(websocket::close_code code, std::string_view reason);
+    void drop_connection(char const* why);
+
+    websocket::stream<beast::tcp_stream> ws_;
+    beast::flat_buffer buffer_;
+    std::shared_ptr<room> room_;
+    client_limits limits_;
+    std::uint64_t client_id_;
+    std::string peer_; ///< address:port, for logs
+
+    std::deque<std::shared_ptr<std::string const>> replies_;
+    std::shared_ptr<std::string const> latest_snapshot_; ///< not yet sent
+    std::shared_ptr<std::string const> in_flight_;       ///< being written
+    clock::time_point write_started_;
+    bool accepted_ = false;
+    bool closing_ = false; ///< a close was started or the connection dropped: write nothing more
+
+    double tokens_;               ///< commands the client may send now (token bucket)
+    clock::time_point refilled_; ///< when tokens_ was last topped up
+};
+
+} // namespace kugel::server

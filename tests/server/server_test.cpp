@@ -1,0 +1,578 @@
+// The network server end to end: a server in this process on a free port, clients over real
+// WebSocket connections. Every message a client reads is checked against its schema in
+// protocol/schema/. Nothing here measures time: waits have generous timeouts, and pace is
+// checked by counting ticks.
+
+#include "http_session.hpp"
+#include "room.hpp"
+#include "server.hpp"
+
+#include "protocol/message_schemas.hpp"
+#include "support/ws_client.hpp"
+
+#include <boost/asio/connect.hpp>
+#include <boost/beast/http.hpp>
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <csignal>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <thread>
+
+#include <spawn.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+namespace kugel::server {
+namespace {
+
+using nlohmann::json;
+using test_support::ws_client;
+namespace fs = std::filesystem;
+
+protocol::testing::message_schemas const& schemas()
+{
+    static protocol::testing::message_schemas const instance;
+    return instance;
+}
+
+/// A client whose every message is checked against its schema.
+class client
+{
+public:
+    explicit client(std::uint16_t port, std::string const& target = "/ws") : ws_(port, target) {}
+
+    json read(std::chrono::milliseconds timeout = std::chrono::seconds(10))
+    {
+        json message = ws_.read_json(timeout);
+        EXPECT_EQ(schemas().refusal(message), "") << message.dump();
+        return message;
+    }
+
+    json next(std::string const& type, std::chrono::milliseconds timeout = std::chrono::seconds(10))
+    {
+        auto const deadline = ws_client::clock::now() + timeout;
+        while (ws_client::clock::now() < deadline) {
+            json message = read(std::chrono::duration_cast<std::chrono::milliseconds>(
+                deadline - ws_client::clock::now()));
+            if (message.at("type") == type)
+                return message;
+        }
+        throw std::runtime_error("no " + type + " in time");
+    }
+
+    /// The first snapshot with tick >= `tick`.
+    json snapshot_at_or_after(std::uint64_t tick)
+    {
+        for (;;) {
+            json s = next("snapshot");
+            if (s.at("tick").get<std::uint64_t>() >= tick)
+                return s;
+        }
+    }
+
+    void send(json const& message) { ws_.send(message); }
+    void send_text(std::string const& text) { ws_.send(text); }
+    ws_client& raw() { return ws_; }
+
+private:
+    ws_client ws_;
+};
+
+/// A scene file written for one test.
+fs::path write_scene(std::string const& name, json const& scene)
+{
+    fs::path const file = fs::path(testing::TempDir()) / ("kugel_server_test_" + name + ".json");
+    std::ofstream(file) << scene.dump(2);
+    return file;
+}
+
+/// Nothing moves unless pushed: no forces, no collisions, walls at ±10 m. One body of
+/// 2 kg at the origin, a power of two so that J/m is exact.
+json still_scene()
+{
+    return {{"name", "still"},
+            {"dt", 1.0 / 64.0},
+            {"integrator", "semi_implicit_euler"},
+            {"collisions", {{"mode", "off"}}},
+            {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+            {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
+}
+
+class running_server
+{
+public:
+    explicit running_server(server_options options) : server_(with_defaults(std::move(options)))
+    {
+        server_.start();
+    }
+    ~running_server()
+    {
+        server_.stop();
+        server_.wait();
+    }
+
+    std::uint16_t port() const { return server_.port(); }
+    server& get() { return server_; }
+    std::uint64_t ticks(std::string_view room_name)
+    {
+        return server_.find_room(room_name)->counters().ticks.load();
+    }
+
+private:
+    static server_options with_defaults(server_options o)
+    {
+        o.port = 0;
+        o.threads = 2;
+        o.shutdown_grace = std::chrono::milliseconds(200);
+        return o;
+    }
+    server server_;
+};
+
+server_options rooms(std::initializer_list<std::pair<std::string, json>> scenes)
+{
+    server_options o;
+    for (auto const& [name, scene] : scenes)
+        o.rooms.push_back({name, write_scene(name, scene)});
+    return o;
+}
+
+json spawn_at(std::uint64_t ref, std::array<double, 3> position, double radius = 0.25, double mass = 1.0)
+{
+    return {{"type", "spawn"},
+            {"ref", ref},
+            {"body", {{"position", position}, {"radius", radius}, {"mass", mass}}}};
+}
+
+/// Index of body `id` in a snapshot's columns, or -1.
+std::ptrdiff_t index_of(json const& snapshot, std::uint64_t id)
+{
+    auto const& ids = snapshot.at("bodies").at("id");
+    for (std::size_t i = 0; i < ids.size(); ++i)
+        if (ids[i].get<std::uint64_t>() == id)
+            return static_cast<std::ptrdiff_t>(i);
+    return -1;
+}
+
+std::array<double, 3> column3(json const& snapshot, char const* column, std::ptrdiff_t i)
+{
+    auto const& c = snapshot.at("bodies").at(column);
+    auto const k = static_cast<std::size_t>(3 * i);
+    return {c[k].get<double>(), c[k + 1].get<double>(), c[k + 2].get<double>()};
+}
+
+TEST(Server, WelcomeComesFirstAndDescribesTheRoom)
+{
+    running_server s(rooms({{"still", still_scene()}}));
+    client c(s.port(), "/ws/still");
+    json const welcome = c.read();
+    ASSERT_EQ(welcome.at("type"), "welcome");
+    EXPECT_EQ(welcome.at("protocol"), 1);
+    EXPECT_EQ(welcome.at("room"), "still");
+    EXPECT_EQ(welcome.at("dt"), 1.0 / 64.0);
+    EXPECT_EQ(welcome.at("tick_rate"), 60.0);
+    EXPECT_EQ(welcome.at("snapshot_rate"), 30.0);
+    EXPECT_EQ(welcome.at("scene").at("name"), "still");
+    EXPECT_EQ(welcome.at("scene").at("walls").size(), 6U); // the box
+    // The next messages are snapshots of the one body.
+    json const snapshot = c.next("snapshot");
+    EXPECT_EQ(snapshot.at("bodies").at("id").size(), 1U);
+}
+
+TEST(Server, DefaultRoomServesTheBuiltInSceneOnWs)
+{
+    running_server s(server_options{});
+    client c(s.port(), "/ws");
+    json const welcome = c.read();
+    EXPECT_EQ(welcome.at("room"), "default");
+    EXPECT_EQ(welcome.at("scene").at("name"), "arena");
+    json const snapshot = c.next("snapshot");
+    EXPECT_GE(snapshot.at("bodies").at("id").size(), 100U); // a few hundred spheres
+}
+
+TEST(Server, SpawnIsAckedWithAnIdAndAppearsFromTheAckedTickWhereItWasPut)
+{
+    running_server s(rooms({{"still", still_scene()}}));
+    client c(s.port(), "/ws/still");
+    c.send(spawn_at(7, {1.5, -2.0, 3.25}));
+    json const ack = c.next("ack");
+    EXPECT_EQ(ack.at("ref"), 7);
+    auto const id = ack.at("id").get<std::uint64_t>();
+    auto const tick = ack.at("tick").get<std::uint64_t>();
+    json const snapshot = c.snapshot_at_or_after(tick);
+    auto const i = index_of(snapshot, id);
+    ASSERT_GE(i, 0) << "the spawned body is missing from the snapshot at tick " << snapshot["tick"];
+    // No forces and zero velocity: it stays exactly where it was put.
+    EXPECT_EQ(column3(snapshot, "position", i), (std::array<double, 3>{1.5, -2.0, 3.25}));
+    EXPECT_EQ(snapshot.at("bodies").at("radius")[static_cast<std::size_t>(i)], 0.25);
+}
+
+TEST(Server, ImpulseChangesVelocityByExactlyJOverMAtTheAckedTick)
+{
+    running_server s(rooms({{"still", still_scene()}}));
+    client c(s.port(), "/ws/still");
+    json const first = c.next("snapshot");
+    auto const id = first.at("bodies").at("id")[0].get<std::uint64_t>(); // 2 kg at rest
+    c.send({{"type", "impulse"}, {"ref", 1}, {"id", id}, {"impulse", {3.0, -1.0, 0.5}}});
+    json const ack = c.next("ack");
+    auto const tick = ack.at("tick").get<std::uint64_t>();
+    for (;;) {
+        json const snapshot = c.next("snapshot");
+        auto const v = column3(snapshot, "velocity", index_of(snapshot, id));
+        if (snapshot.at("tick").get<std::uint64_t>() < tick) {
+            EXPECT_EQ(v, (std::array<double, 3>{0.0, 0.0, 0.0})) << "pushed before its tick";
+            continue;
+        }
+        // J/m with m = 2 kg is exact in binary, so equality is the right test.
+        EXPECT_EQ(v, (std::array<double, 3>{1.5, -0.5, 0.25}));
+        break;
+    }
+}
+
+TEST(Server, TwoClientsSeeTheSameWorldAndEachOthersCommands)
+{
+    running_server s(rooms({{"still", still_scene()}}));
+    client a(s.port(), "/ws/still");
+    client b(s.port(), "/ws/still");
+    EXPECT_NE(a.next("welcome").at("client"), b.next("welcome").at("client"));
+    a.send(spawn_at(1, {4.0, 4.0, 4.0}));
+    json const ack = a.next("ack");
+    auto const id = ack.at("id").get<std::uint64_t>();
+    json const seen_by_a = a.snapshot_at_or_after(ack.at("tick"));
+    json seen_by_b = b.snapshot_at_or_after(ack.at("tick"));
+    while (seen_by_b.at("tick") != seen_by_a.at("tick")) {
+        ASSERT_LT(seen_by_b.at("tick").get<std::uint64_t>(), seen_by_a.at("tick").get<std::uint64_t>());
+        seen_by_b = b.next("snapshot");
+    }
+    EXPECT_GE(index_of(seen_by_b, id), 0);
+    EXPECT_EQ(seen_by_a.at("bodies"), seen_by_b.at("bodies")); // the same truth, bit for bit
+}
+
+TEST(Server, BadInputGetsItsErrorCodeAndTheConnectionStaysUsable)
+{
+    running_server s(rooms({{"still", still_scene()}}));
+    client c(s.port(), "/ws/still");
+    c.next("welcome");
+    auto const error_for = [&](std::string const& text) {
+        c.send_text(text);
+        return c.next("error");
+    };
+    EXPECT_EQ(error_for("{not json").at("code"), "bad_json");
+    EXPECT_EQ(error_for(R"({"type":"spawn","ref":"one","body":{}})").at("code"), "wrong_type");
+    json const not_finite = error_for(
+        R"({"type":"spawn","ref":3,"body":{"position":[1e999,0,0],"radius":0.1,"mass":1}})");
+    EXPECT_EQ(not_finite.at("code"), "not_finite");
+    EXPECT_EQ(not_finite.at("ref"), 3);
+    EXPECT_EQ(error_for(R"({"type":"teleport","ref":4})").at("code"), "unknown_type");
+    json const unknown = error_for(R"({"type":"impulse","ref":5,"id":999999,"impulse":[1,0,0]})");
+    EXPECT_EQ(unknown.at("code"), "unknown_body");
+    EXPECT_EQ(unknown.at("ref"), 5);
+    EXPECT_EQ(error_for(R"({"type":"remove","ref":6,"id":424242})").at("code"), "unknown_body");
+    EXPECT_EQ(error_for(spawn_at(7, {0, 0, 12}).dump()).at("code"), "outside_world");
+    EXPECT_EQ(error_for(spawn_at(8, {9.9, 0, 0}).dump()).at("code"), "overlaps_wall");
+    json const negative = error_for(spawn_at(9, {1, 1, 1}, -0.5).dump());
+    EXPECT_EQ(negative.at("code"), "bad_value");
+    EXPECT_NE(negative.at("message").get<std::string>().find("/body/radius"), std::string::npos);
+
+    // After all that, the same connection still works; unknown fields are ignored.
+    json spawn = spawn_at(10, {2, 2, 2});
+    spawn["colour"] = "red";
+    c.send(spawn);
+    json const ack = c.next("ack");
+    EXPECT_EQ(ack.at("ref"), 10);
+    EXPECT_TRUE(ack.contains("id"));
+    c.send({{"type", "ping"}, {"ref", 11}});
+    EXPECT_EQ(c.next("pong").at("ref"), 11);
+}
+
+TEST(Server, OversizedFrameIsClosedWith1009)
+{
+    server_options options = rooms({{"still", still_scene()}});
+    options.client.max_message_bytes = 1024;
+    running_server s(options);
+    client c(s.port(), "/ws/still");
+    c.next("welcome");
+    c.send_text(std::string(2048, ' '));
+    while (c.raw().read(std::chrono::seconds(10))) {
+    }
+    ASSERT_TRUE(c.raw().closed());
+    EXPECT_EQ(c.raw().close_code(), 1009);
+}
+
+TEST(Server, SpawnBeyondTheBodyLimitIsRefusedWithRoomFull)
+{
+    server_options options = rooms({{"still", still_scene()}});
+    options.max_bodies = 2; // the scene's body plus one
+    running_server s(options);
+    client c(s.port(), "/ws/still");
+    c.send(spawn_at(1, {1, 1, 1}));
+    EXPECT_EQ(c.next("ack").at("ref"), 1);
+    c.send(spawn_at(2, {-1, -1, -1}));
+    json const refused = c.next("error");
+    EXPECT_EQ(refused.at("code"), "room_full");
+    EXPECT_EQ(refused.at("ref"), 2);
+}
+
+TEST(Server, CommandsBeyondTheRateLimitAreRefusedWithRateLimited)
+{
+    server_options options = rooms({{"still", still_scene()}});
+    options.client.commands_per_second = 1.0; // one a second, after a burst of 5
+    options.client.command_burst = 5.0;
+    running_server s(options);
+    client c(s.port(), "/ws/still");
+    for (int ref = 1; ref <= 10; ++ref)
+        c.send({{"type", "ping"}, {"ref", ref}});
+    int pongs = 0;
+    int limited = 0;
+    while (pongs + limited < 10) {
+        json const m = c.read();
+        if (m.at("type") == "pong")
+            ++pongs;
+        if (m.at("type") == "error" && m.at("code") == "rate_limited")
+            ++limited;
+    }
+    // Sent within well under a second: the burst passes, at most one more token accrues.
+    EXPECT_GE(pongs, 5);
+    EXPECT_LE(pongs, 6);
+    EXPECT_EQ(pongs + limited, 10);
+}
+
+/// Many bodies, so that each snapshot is large and a client that does not read fills its
+/// socket buffers within a few snapshots.
+json crowded_scene()
+{
+    json scene = still_scene();
+    scene["name"] = "crowded";
+    scene["generators"] = json::array({{{"count", 2000},
+                                        {"placement", "lattice"},
+                                        {"radius", 0.05},
+                                        {"mass", 1.0},
+                                        {"max_speed", 0.0},
+                                        {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
+    return scene;
+}
+
+TEST(Server, AClientThatNeverReadsHoldsUpNeitherTheTickNorAnotherClient)
+{
+    server_options options = rooms({{"crowded", crowded_scene()}});
+    options.client.write_stall = std::chrono::milliseconds(1000);
+    running_server s(options);
+    ws_client stalled(s.port(), "/ws/crowded"); // connects, never reads
+    client reader(s.port(), "/ws/crowded");
+    reader.next("welcome");
+
+    // 120 snapshots (4 s at 30 Hz): long enough for the stalled client's socket buffers to
+    // fill (each snapshot is about 250 kB) and for it to be dropped after its 1 s stall.
+    std::uint64_t const first_tick = reader.next("snapshot").at("tick");
+    std::uint64_t last = first_tick;
+    int received = 0;
+    while (received < 120) {
+        std::uint64_t const tick = reader.next("snapshot").at("tick");
+        ASSERT_GT(tick, last) << "snapshot ticks must advance";
+        last = tick;
+        ++received;
+    }
+    // The tick kept pace: 120 snapshots at one per two ticks span about 240 ticks (a few
+    // more if the reader itself was slow and a newer snapshot replaced one it had not yet
+    // taken); the room itself is at least as far on.
+    EXPECT_GE(last - first_tick, 2U * static_cast<std::uint64_t>(received) - 2U);
+    EXPECT_LE(last - first_tick, 2U * static_cast<std::uint64_t>(received) + 20U);
+    EXPECT_GE(s.ticks("crowded"), last);
+
+    // The stalled client, once it does read, finds it was disconnected.
+    while (stalled.read(std::chrono::seconds(10))) {
+    }
+    EXPECT_TRUE(stalled.closed());
+}
+
+TEST(Server, RoomsAreIsolated)
+{
+    json other = still_scene();
+    other["name"] = "other";
+    running_server s(rooms({{"one", still_scene()}, {"two", other}}));
+    client one(s.port(), "/ws/one");
+    client two(s.port(), "/ws/two");
+    EXPECT_EQ(one.next("welcome").at("room"), "one");
+    EXPECT_EQ(two.next("welcome").at("room"), "two");
+    one.send(spawn_at(1, {3, 3, 3}));
+    json const ack = one.next("ack");
+    auto const id = ack.at("id").get<std::uint64_t>();
+    json const in_one = one.snapshot_at_or_after(ack.at("tick").get<std::uint64_t>() + 2);
+    json const in_two = two.snapshot_at_or_after(ack.at("tick").get<std::uint64_t>() + 2);
+    EXPECT_EQ(in_one.at("bodies").at("id").size(), 2U);
+    EXPECT_EQ(in_two.at("bodies").at("id").size(), 1U);
+    // Ids are per room, so `id` may exist in room two, but not at (3, 3, 3).
+    auto const i = index_of(in_two, id);
+    if (i >= 0) {
+        EXPECT_NE(column3(in_two, "position", i), (std::array<double, 3>{3.0, 3.0, 3.0}));
+    }
+    // A command in room two cannot reach the body spawned in room one.
+    two.send({{"type", "remove"}, {"ref", 2}, {"id", id + 100}});
+    EXPECT_EQ(two.next("error").at("code"), "unknown_body");
+}
+
+TEST(Server, StopClosesEveryClientWithGoingAway)
+{
+    running_server s(rooms({{"still", still_scene()}}));
+    client c(s.port(), "/ws/still");
+    c.next("welcome");
+    s.get().stop();
+    while (c.raw().read(std::chrono::seconds(10))) {
+    }
+    ASSERT_TRUE(c.raw().closed());
+    EXPECT_EQ(c.raw().close_code(), 1001);
+}
+
+/// One HTTP GET on a fresh connection: (status, body).
+std::pair<unsigned, std::string> http_get(std::uint16_t port, std::string const& target)
+{
+    namespace beast = boost::beast;
+    namespace http = beast::http;
+    boost::asio::io_context io;
+    boost::asio::ip::tcp::socket socket(io);
+    boost::asio::ip::tcp::resolver resolver(io);
+    boost::asio::connect(socket, resolver.resolve("127.0.0.1", std::to_string(port)));
+    http::request<http::empty_body> request{http::verb::get, target, 11};
+    request.set(http::field::host, "127.0.0.1");
+    request.keep_alive(false);
+    http::write(socket, request);
+    beast::flat_buffer buffer;
+    http::response<http::string_body> response;
+    http::read(socket, buffer, response);
+    return {response.result_int(), response.body()};
+}
+
+TEST(Server, ServesHealthAndTheWebRootAndNothingOutsideIt)
+{
+    fs::path const root = fs::path(testing::TempDir()) / "kugel_server_test_web";
+    fs::create_directories(root);
+    std::ofstream(root / "index.html") << "<!doctype html><title>kugel</title>";
+    server_options options = rooms({{"still", still_scene()}});
+    options.web_root = root;
+    running_server s(options);
+
+    auto const [health_status, health] = http_get(s.port(), "/healthz");
+    EXPECT_EQ(health_status, 200U);
+    json const h = json::parse(health);
+    EXPECT_EQ(h.at("status"), "ok");
+    EXPECT_TRUE(h.at("rooms").contains("still"));
+
+    auto const [index_status, index] = http_get(s.port(), "/");
+    EXPECT_EQ(index_status, 200U);
+    EXPECT_EQ(index, "<!doctype html><title>kugel</title>");
+    EXPECT_EQ(http_get(s.port(), "/../../etc/passwd").first, 404U);
+    EXPECT_EQ(http_get(s.port(), "/missing.js").first, 404U);
+    EXPECT_THROW(ws_client(s.port(), "/ws/no-such-room"), std::exception); // 404, no upgrade
+}
+
+TEST(Server, RoomOfTargetMapsWebSocketPaths)
+{
+    EXPECT_EQ(room_of_target("/ws"), "default");
+    EXPECT_EQ(room_of_target("/ws/"), "default");
+    EXPECT_EQ(room_of_target("/ws/lab?x=1"), "lab");
+    EXPECT_EQ(room_of_target("/ws/a/b"), std::nullopt);
+    EXPECT_EQ(room_of_target("/index.html"), std::nullopt);
+}
+
+} // namespace
+} // namespace kugel::server
+
+namespace kugel::server {
+namespace {
+
+/// kugel-server as a child process on a free port, its log read from a pipe.
+class server_process
+{
+public:
+    explicit server_process(std::vector<std::string> args)
+    {
+        int fds[2];
+        if (pipe(fds) != 0)
+            throw std::runtime_error("pipe failed");
+        posix_spawn_file_actions_t actions;
+        posix_spawn_file_actions_init(&actions);
+        posix_spawn_file_actions_adddup2(&actions, fds[1], 2);
+        posix_spawn_file_actions_addclose(&actions, fds[0]);
+        args.insert(args.begin(), KUGEL_SERVER_EXE);
+        std::vector<char*> argv;
+        for (std::string& a : args)
+            argv.push_back(a.data());
+        argv.push_back(nullptr);
+        int const spawned = posix_spawn(&pid_, KUGEL_SERVER_EXE, &actions, nullptr, argv.data(), environ);
+        posix_spawn_file_actions_destroy(&actions);
+        close(fds[1]);
+        if (spawned != 0)
+            throw std::runtime_error("cannot start kugel-server");
+        log_ = fdopen(fds[0], "r");
+    }
+    ~server_process()
+    {
+        if (pid_ > 0 && !exited_) {
+            kill(pid_, SIGKILL);
+            waitpid(pid_, nullptr, 0);
+        }
+        if (log_)
+            fclose(log_);
+    }
+
+    /// Reads the log until a line contains `needle`; returns that line ("" at end of log).
+    std::string wait_for_log(std::string const& needle)
+    {
+        char line[4096];
+        while (fgets(line, sizeof line, log_)) {
+            if (std::string(line).find(needle) != std::string::npos)
+                return line;
+        }
+        return "";
+    }
+
+    void signal(int number) { kill(pid_, number); }
+
+    /// The exit status, once the process ended by itself (-1 for a crash).
+    int wait()
+    {
+        int status = 0;
+        waitpid(pid_, &status, 0);
+        exited_ = true;
+        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
+    }
+
+private:
+    pid_t pid_ = -1;
+    FILE* log_ = nullptr;
+    bool exited_ = false;
+};
+
+TEST(ServerProcess, SigtermClosesEveryClientWithGoingAwayAndExitsZero)
+{
+    server_process p({"--port", "0", "--room", "still=" + write_scene("process", still_scene()).string()});
+    std::string const line = p.wait_for_log("serving on http://127.0.0.1:");
+    ASSERT_FALSE(line.empty()) << "the server did not start";
+    auto const port_at = line.find("127.0.0.1:") + 10;
+    auto const port = static_cast<std::uint16_t>(std::stoul(line.substr(port_at)));
+    client c(port, "/ws/still");
+    c.next("welcome");
+    c.next("snapshot");
+    p.signal(SIGTERM);
+    while (c.raw().read(std::chrono::seconds(10))) {
+    }
+    ASSERT_TRUE(c.raw().closed());
+    EXPECT_EQ(c.raw().close_code(), 1001);
+    EXPECT_EQ(p.wait(), 0);
+}
+
+TEST(ServerProcess, RefusesABadRoomSceneWithExitTwoAndTheReason)
+{
+    json bad = still_scene();
+    bad["dt"] = -1;
+    server_process p({"--port", "0", "--room", "bad=" + write_scene("bad", bad).string()});
+    EXPECT_NE(p.wait_for_log("/dt"), "");
+    EXPECT_EQ(p.wait(), 2);
+}
+
+} // namespace
+} // namespace kugel::server
