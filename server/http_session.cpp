@@ -116,9 +116,11 @@ void http_session::on_read(beast::error_code ec, std::size_t)
     if (websocket::is_upgrade(request)) {
         auto const room_name = room_of_target(request.target());
         auto target_room = room_name ? routes_->find_room(*room_name) : nullptr;
-        if (!target_room)
+        if (!target_room) {
+            spdlog::info("refused a WebSocket upgrade to {}: no such room", request.target());
             return send(text_response(request, http::status::not_found,
                                       "no room at " + std::string(request.target()) + "\n"));
+        }
         stream_.expires_never(); // the WebSocket session keeps its own timeouts
         routes_->upgrade(stream_.release_socket(), std::move(target_room), std::move(request));
         return;

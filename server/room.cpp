@@ -52,9 +52,12 @@ std::shared_ptr<std::string const> share(std::string text)
     return std::make_shared<std::string const>(std::move(text));
 }
 
-std::shared_ptr<std::string const> refusal(std::uint64_t ref, error_code code, std::string message)
+/// Answers a command that cannot apply with an error, and logs the refusal.
+void refuse(websocket_session& to, std::uint64_t ref, error_code code, std::string message)
 {
-    return share(protocol::encode(protocol::error{ref, code, std::move(message)}));
+    spdlog::info("client {}: refused ref {}: {} ({})", to.client_id(), ref,
+                 protocol::name(code), message);
+    to.send_reply(share(protocol::encode(protocol::error{ref, code, std::move(message)})));
 }
 
 std::string describe(protocol::vec3 const& v)
@@ -161,22 +164,22 @@ void room::apply_commands(std::vector<command> commands)
 void room::apply(protocol::spawn const& spawn, websocket_session& from)
 {
     protocol::body_spec const& body = spawn.body;
-    auto const refuse = [&](error_code code, std::string message) {
-        from.send_reply(refusal(spawn.ref, code, std::move(message)));
+    auto const refuse_spawn = [&](error_code code, std::string message) {
+        refuse(from, spawn.ref, code, std::move(message));
     };
     if (world_.bodies().size() >= settings_.max_bodies)
-        return refuse(error_code::room_full, "the room holds its limit of " +
+        return refuse_spawn(error_code::room_full, "the room holds its limit of " +
                                                  std::to_string(settings_.max_bodies) + " bodies");
     physics::vec3 const x = from_wire(body.position);
     for (std::size_t k = 0; k < world_.walls().size(); ++k) {
         physics::plane const& p = world_.walls()[k].surface;
         double const height = p.normal.dot(x) - p.offset; // m above the wall
         if (height < 0.0)
-            return refuse(error_code::outside_world,
+            return refuse_spawn(error_code::outside_world,
                           "/body/position: " + describe(body.position) + " is behind wall " +
                               std::to_string(k) + " (by " + std::to_string(-height) + " m)");
         if (height < body.radius)
-            return refuse(error_code::overlaps_wall,
+            return refuse_spawn(error_code::overlaps_wall,
                           "/body/position: a sphere of radius " + std::to_string(body.radius) +
                               " m at " + describe(body.position) + " crosses wall " +
                               std::to_string(k));
@@ -184,7 +187,7 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from)
     if (body.radius > 0.0) {
         for (std::size_t k = 0; k < world_.obstacles().size(); ++k)
             if (physics::sphere_vs_obb(x, body.radius, world_.obstacles()[k].box).touching)
-                return refuse(error_code::overlaps_wall,
+                return refuse_spawn(error_code::overlaps_wall,
                               "/body/position: a sphere of radius " + std::to_string(body.radius) +
                                   " m at " + describe(body.position) + " overlaps obstacle " +
                                   std::to_string(k));
@@ -196,14 +199,14 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from)
     desc.charge = body.charge;
     desc.mass = body.mass ? *body.mass : physics::mass_from_density(*body.density, body.radius);
     if (!(desc.mass > 0.0) || !std::isfinite(1.0 / desc.mass))
-        return refuse(error_code::bad_value, "/body: the mass this gives, " +
+        return refuse_spawn(error_code::bad_value, "/body: the mass this gives, " +
                                                  std::to_string(desc.mass) +
                                                  " kg, is not a usable positive mass");
     std::uint64_t id = 0;
     try {
         id = add_body(desc);
     } catch (std::invalid_argument const& e) {
-        return refuse(error_code::bad_value, std::string("/body: ") + e.what());
+        return refuse_spawn(error_code::bad_value, std::string("/body: ") + e.what());
     }
     from.send_reply(share(protocol::encode(protocol::ack{spawn.ref, counters_.ticks + 1, id})));
 }
@@ -212,8 +215,8 @@ void room::apply(protocol::impulse const& impulse, websocket_session& from)
 {
     auto const body = body_of_wire_id_.find(impulse.id);
     if (body == body_of_wire_id_.end()) {
-        from.send_reply(refusal(impulse.ref, error_code::unknown_body,
-                                "/id: no body " + std::to_string(impulse.id) + " in this room"));
+        refuse(from, impulse.ref, error_code::unknown_body,
+               "/id: no body " + std::to_string(impulse.id) + " in this room");
         return;
     }
     world_.apply_impulse(body->second, from_wire(impulse.impulse));
@@ -224,8 +227,8 @@ void room::apply(protocol::remove const& remove, websocket_session& from)
 {
     auto const body = body_of_wire_id_.find(remove.id);
     if (body == body_of_wire_id_.end()) {
-        from.send_reply(refusal(remove.ref, error_code::unknown_body,
-                                "/id: no body " + std::to_string(remove.id) + " in this room"));
+        refuse(from, remove.ref, error_code::unknown_body,
+               "/id: no body " + std::to_string(remove.id) + " in this room");
         return;
     }
     world_.remove_body(body->second);

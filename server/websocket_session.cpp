@@ -96,6 +96,8 @@ void websocket_session::handle_message(std::string_view text)
     }
     auto decoded = protocol::decode(text);
     if (decoded.failure) {
+        spdlog::info("client {} ({}): refused a message: {} ({})", client_id_, peer_,
+                     protocol::name(decoded.failure->code), decoded.failure->message);
         queue_reply(std::make_shared<std::string const>(protocol::encode(*decoded.failure)));
         return;
     }
@@ -106,6 +108,9 @@ void websocket_session::handle_message(std::string_view text)
         return;
     }
     if (!take_command_token()) {
+        if (++rate_limited_ == 1 || rate_limited_ % 100 == 0) // a flood logs a line per 100
+            spdlog::info("client {} ({}): refused {} commands over the rate limit so far",
+                         client_id_, peer_, rate_limited_);
         queue_reply(std::make_shared<std::string const>(protocol::encode(protocol::error{
             ref_of(message), protocol::error_code::rate_limited,
             "more than " + std::to_string(limits_.commands_per_second) +

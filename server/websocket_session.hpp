@@ -74,6 +74,7 @@ private:
 
     double tokens_;               ///< commands the client may send now (token bucket)
     clock::time_point refilled_; ///< when tokens_ was last topped up
+    std::uint64_t rate_limited_ = 0; ///< commands refused for the rate, for the log
 };
 
 } // namespace kugel::server
