@@ -781,9 +781,84 @@ std::string encode(error const& message)
 {
     return encode_message(message);
 }
+// A snapshot is most of the traffic and grows with the bodies, so it is written straight
+// into one string with std::to_chars rather than built as a JSON document first: the same
+// text in a third of the time (bench/protocol_bench.cpp, encode_snapshot).
+namespace {
+
+class snapshot_writer
+{
+public:
+    explicit snapshot_writer(std::size_t bodies) { out_.reserve(64 + 160 * bodies); }
+
+    void raw(std::string_view text) { out_ += text; }
+
+    template <class Number>
+    void number(Number x)
+    {
+        if constexpr (std::is_floating_point_v<Number>) {
+            if (!std::isfinite(x)) { // never sent by the server; what nlohmann would write
+                out_ += "null";
+                return;
+            }
+        }
+        std::array<char, 32> buffer{};
+        auto const [end, ec] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), x);
+        out_.append(buffer.data(), end);
+        if constexpr (std::is_floating_point_v<Number>) {
+            if (std::string_view(buffer.data(), end).find_first_of(".e") == std::string_view::npos)
+                out_ += ".0"; // 3.0, not 3: a double stays a double on the wire, as elsewhere
+        }
+    }
+
+    template <class Number>
+    void column(std::string_view name, std::vector<Number> const& values)
+    {
+        out_ += '"';
+        out_ += name;
+        out_ += "\":[";
+        for (std::size_t i = 0; i < values.size(); ++i) {
+            if (i > 0)
+                out_ += ',';
+            number(values[i]);
+        }
+        out_ += ']';
+    }
+
+    std::string take() { return std::move(out_); }
+
+private:
+    std::string out_;
+};
+
+} // namespace
+
 std::string encode(snapshot const& message)
 {
-    return encode_message(message);
+    body_columns const& b = message.bodies;
+    snapshot_writer w(b.size());
+    w.raw(R"({"type":"snapshot","tick":)");
+    w.number(message.tick);
+    w.raw(R"(,"time":)");
+    w.number(message.time);
+    w.raw(R"(,"bodies":{)");
+    w.column("id", b.id);
+    w.raw(",");
+    w.column("position", b.position);
+    w.raw(",");
+    w.column("velocity", b.velocity);
+    w.raw(",");
+    w.column("radius", b.radius);
+    if (b.mass) {
+        w.raw(",");
+        w.column("mass", *b.mass);
+    }
+    if (b.charge) {
+        w.raw(",");
+        w.column("charge", *b.charge);
+    }
+    w.raw("}}");
+    return w.take();
 }
 std::string encode(pong const& message)
 {
