@@ -317,7 +317,7 @@ void room::record(clock::duration cost, std::size_t snapshot_bytes)
     report_worst_ = std::max(report_worst_, cost);
     report_bytes_ += snapshot_bytes;
     auto const now = clock::now();
-    if (now - report_started_ < std::chrono::seconds(10))
+    if (now - report_started_ < std::chrono::seconds(5))
         return;
     using ms = std::chrono::duration<double, std::milli>;
     double const seconds = std::chrono::duration<double>(now - report_started_).count();
