@@ -136,7 +136,8 @@ export class SnapshotBuffer {
     const s = (t - a.time) / h;
     for (let j = 0; j < b.count; j++) {
       const j3 = 3 * j;
-      const i = index_of(a, b.id[j]);
+      // Bodies usually keep their order from one snapshot to the next: try the same index first.
+      const i = j < a.count && a.id[j] === b.id[j] ? j : index_of(a, b.id[j]);
       if (i < 0) {
         // Spawned since a: drawn where it first appeared.
         for (let k = 0; k < 3; k++) {
