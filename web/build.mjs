@@ -1,5 +1,6 @@
 // Bundles the page into dist/: main.js (the sources and three.js, one ES module),
-// index.html and style.css. `node build.mjs --watch` rebuilds on every change.
+// parse_worker.js (a classic worker script, which every browser can start), index.html and
+// style.css. `node build.mjs --watch` rebuilds on every change.
 import * as esbuild from 'esbuild';
 import { copyFile, mkdir } from 'node:fs/promises';
 import { dirname, join } from 'node:path';
@@ -21,23 +22,22 @@ const copy_static = {
 };
 
 await mkdir(dist, { recursive: true });
-const options = {
-  entryPoints: [join(here, 'src', 'main.js')],
-  outfile: join(dist, 'main.js'),
+const common = {
   bundle: true,
-  format: 'esm',
   target: 'es2022',
   minify: true,
   sourcemap: true,
   legalComments: 'linked',
   logLevel: 'warning',
-  plugins: [copy_static],
 };
+const builds = [
+  { ...common, entryPoints: [join(here, 'src', 'main.js')], outfile: join(dist, 'main.js'), format: 'esm', plugins: [copy_static] },
+  { ...common, entryPoints: [join(here, 'src', 'parse_worker.js')], outfile: join(dist, 'parse_worker.js'), format: 'iife' },
+];
 
 if (watch) {
-  const context = await esbuild.context(options);
-  await context.watch();
+  for (const options of builds) await (await esbuild.context(options)).watch();
   console.log('watching web/src: rebuilding dist/ on every change');
 } else {
-  await esbuild.build(options);
+  await Promise.all(builds.map((options) => esbuild.build(options)));
 }

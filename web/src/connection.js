@@ -1,6 +1,8 @@
 // The WebSocket to one room: numbers commands with refs, pings once a second for the round
 // trip time, and reconnects by itself with exponential backoff when the connection drops
-// (a server restart), until close() is called.
+// (a server restart), until close() is called. Frames are parsed by a worker
+// (parse_worker.js) when one can start, otherwise here.
+import { parse_frame } from './parse_frame.js';
 
 /** Milliseconds to wait before reconnect attempt `attempt` (0, 1, 2, ...), with +-20 % jitter. */
 export function backoff_delay(attempt, { initial = 250, max = 5000, random = Math.random } = {}) {
@@ -16,11 +18,13 @@ export function room_url(room, location = window.location) {
 
 export class Connection {
   /**
-   * on_message(message): every message from the server, parsed.
+   * on_message(message, snapshot): every message from the server, parsed; for a snapshot,
+   * its columns (interpolation.js, snapshot_from_message) instead of message.bodies.
    * on_state(state, detail): 'connecting', 'connected', 'reconnecting' (detail: seconds until
    * the next attempt), 'closed'.
+   * worker_url: the bundled parse_worker.js, or null to parse on the main thread.
    */
-  constructor({ url, on_message, on_state, ping_interval = 1000, backoff = {} }) {
+  constructor({ url, on_message, on_state, ping_interval = 1000, backoff = {}, worker_url = null }) {
     this.url = url;
     this.on_message = on_message;
     this.on_state = on_state;
@@ -35,15 +39,23 @@ export class Connection {
     this.ping_timer = null;
     this.retry_timer = null;
     this.stopped = false;
+    this.generation = 0; // counts sockets, so frames of a closed one are recognised and dropped
+    this.worker = start_worker(worker_url, (event) => {
+      if (event.data.generation === this.generation && !this.stopped) this.receive(event.data.parsed);
+    });
   }
 
   open() {
     this.stopped = false;
     this.set_state('connecting');
     const socket = new WebSocket(this.url);
+    const generation = ++this.generation;
     this.socket = socket;
     socket.onmessage = (event) => {
-      if (socket === this.socket) this.receive(event.data); // not a closed socket's last frames
+      if (socket !== this.socket) return; // a closed socket's last frames
+      const received_at = performance.now() / 1000;
+      if (this.worker) this.worker.postMessage({ generation, data: event.data, received_at });
+      else this.receive(parse_frame(event.data, received_at));
     };
     socket.onclose = () => {
       if (socket === this.socket) this.dropped();
@@ -60,6 +72,8 @@ export class Connection {
     const socket = this.socket;
     this.socket = null;
     if (socket) socket.close(1000);
+    this.worker?.terminate();
+    this.worker = null;
     this.set_state('closed');
   }
 
@@ -71,14 +85,12 @@ export class Connection {
     return ref;
   }
 
-  receive(data) {
-    let message;
-    try {
-      message = JSON.parse(data);
-    } catch {
-      console.warn('kugel: a frame that is not JSON', data);
+  receive(parsed) {
+    if (!parsed) {
+      console.warn('kugel: the server sent a frame that is not JSON');
       return;
     }
+    const { message, snapshot } = parsed;
     if (message.type === 'welcome') {
       this.attempt = 0;
       this.set_state('connected');
@@ -87,7 +99,7 @@ export class Connection {
       this.rtt_ms = performance.now() - this.pings.get(message.ref);
       this.pings.delete(message.ref);
     }
-    this.on_message(message);
+    this.on_message(message, snapshot);
   }
 
   start_pings() {
@@ -115,5 +127,17 @@ export class Connection {
   set_state(state, detail) {
     this.state = state;
     this.on_state(state, detail);
+  }
+}
+
+/** A worker running parse_worker.js, or null where none can start (then frames are parsed on the main thread). */
+function start_worker(url, on_parsed) {
+  if (!url || typeof Worker === 'undefined') return null;
+  try {
+    const worker = new Worker(url);
+    worker.onmessage = on_parsed;
+    return worker;
+  } catch {
+    return null;
   }
 }

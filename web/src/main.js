@@ -7,7 +7,7 @@ import { colour_bodies, max_charge, round_up, speed_quantile } from './colour_sc
 import { Connection, room_url } from './connection.js';
 import { Hud } from './hud.js';
 import { PointerInput } from './input.js';
-import { index_of, PlaybackClock, snapshot_from_message, SnapshotBuffer } from './interpolation.js';
+import { index_of, PlaybackClock, SnapshotBuffer } from './interpolation.js';
 import { choose_room, list_rooms } from './rooms.js';
 import { SceneView } from './scene_view.js';
 
@@ -39,6 +39,7 @@ const state = {
   rtt_ms: null,
   tick_ms: null,
   frames_per_second: null,
+  parser: null, // where snapshots are parsed: 'worker' or 'main thread'
   frames: 0, // frames drawn with bodies in them
   welcomes: 0,
   acks: [], // the last few: {ref, tick, id, command}
@@ -81,14 +82,13 @@ function remember(list, entry) {
   if (list.length > kept_answers) list.shift();
 }
 
-function on_message(message) {
-  const now = performance.now() / 1000;
+function on_message(message, snapshot) {
   switch (message.type) {
     case 'welcome':
       on_welcome(message);
       break;
     case 'snapshot':
-      on_snapshot(message, now);
+      on_snapshot(message, snapshot);
       break;
     case 'ack': {
       const command = commands.get(message.ref) ?? null;
@@ -125,8 +125,8 @@ function on_welcome(message) {
   hud.set_scene(message.scene.name);
 }
 
-function on_snapshot(message, now) {
-  const snapshot = snapshot_from_message(message, now);
+function on_snapshot(message, snapshot) {
+  const now = snapshot.received_at;
   if (!buffer.push(snapshot)) return;
   clock?.on_snapshot(snapshot.time, now);
   snapshot_arrivals.push(now);
@@ -145,12 +145,14 @@ function connect(room) {
   hud.set_rooms(room, state.rooms, switch_room);
   connection = new Connection({
     url: room_url(room),
+    worker_url: 'parse_worker.js',
     on_message,
     on_state: (s, detail) => {
       state.connection = s;
       hud.set_connection(s, detail);
     },
   });
+  state.parser = connection.worker ? 'worker' : 'main thread';
   connection.open();
 }
 

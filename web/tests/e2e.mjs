@@ -201,6 +201,7 @@ test('the page loads, connects and shows the world in its HUD: bodies and an adv
   assert.equal(s.room, 'arena');
   assert.equal(s.bodies, 400);
   assert.deepEqual(s.rooms, ['arena', 'resting']);
+  assert.equal(s.parser, 'worker', 'snapshots are parsed off the main thread');
   await wait_for('a round trip time in the HUD', () => /ms$/.test(document.getElementById('hud-rtt').textContent));
   assert.equal(await page.locator('#hud-tick-time').textContent(), 'n/a', 'the server reports no tick time yet');
   assert.ok(await page.locator('#room-picker').isVisible(), 'a room picker when the server hosts several rooms');
