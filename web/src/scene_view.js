@@ -12,7 +12,16 @@ const wall_colour = 0x8fa3b8;
 const edge_colour = 0x5b6b7c;
 const obstacle_colour = 0xa88a5c;
 
-const sphere_detail = [16, 12]; // width and height segments of the shared sphere geometry
+/**
+ * Width and height segments of the spheres' shared geometry for a number of spheres: round
+ * enough to look round when there are few, few enough triangles when there are many
+ * (352, 140 and 80 triangles per sphere).
+ */
+function sphere_detail(count) {
+  if (count <= 2048) return [16, 12];
+  if (count <= 16384) return [10, 8];
+  return [8, 6];
+}
 
 export class SceneView {
   constructor(canvas) {
@@ -37,7 +46,7 @@ export class SceneView {
     this.scene.add(this.static_group);
     this.surfaces = []; // meshes a click may spawn on
 
-    this.sphere_geometry = new THREE.SphereGeometry(1, ...sphere_detail);
+    this.sphere_geometry = null;
     this.sphere_material = new THREE.MeshStandardMaterial({ roughness: 0.45, metalness: 0.05 });
     this.spheres = null;
     this.capacity = 0;
@@ -184,7 +193,9 @@ export class SceneView {
     if (this.spheres) {
       this.scene.remove(this.spheres);
       this.spheres.dispose();
+      this.sphere_geometry.dispose();
     }
+    this.sphere_geometry = new THREE.SphereGeometry(1, ...sphere_detail(capacity));
     const spheres = new THREE.InstancedMesh(this.sphere_geometry, this.sphere_material, capacity);
     spheres.instanceMatrix.setUsage(THREE.DynamicDrawUsage);
     spheres.instanceColor = new THREE.InstancedBufferAttribute(new Float32Array(3 * capacity), 3);
