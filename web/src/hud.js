@@ -19,7 +19,10 @@ const plain_words = {
 
 /** A readable line for an `error` message; `command` is the refused command's type, if known. */
 export function describe_error(error, command) {
-  const what = command ? `${command[0].toUpperCase()}${command.slice(1)} refused` : 'The server refused a message';
+  if (error.code === 'not_connected') {
+    return { headline: `${capitalised(command ?? 'command')} not sent: the page is not connected to the server`, code: error.code, detail: error.message };
+  }
+  const what = command ? `${capitalised(command)} refused` : 'The server refused a message';
   const why = plain_words[error.code] ?? error.message;
   return { headline: `${what}: ${why}`, code: error.code, detail: error.message };
 }
@@ -117,6 +120,10 @@ export class Hud {
     while (this.messages.children.length > max_messages) this.messages.firstElementChild.remove();
     setTimeout(() => element.remove(), message_seconds * 1000);
   }
+}
+
+function capitalised(word) {
+  return word[0].toUpperCase() + word.slice(1);
 }
 
 function format_number(x) {

@@ -43,7 +43,7 @@ const state = {
   frames: 0, // frames drawn with bodies in them
   welcomes: 0,
   acks: [], // the last few: {ref, tick, id, command}
-  errors: [], // the last few: {ref, code, message, command, shown}
+  errors: [], // the last few: {ref, code, message, command}
 };
 
 let connection = null;
@@ -60,6 +60,7 @@ const input = new PointerInput({
   view,
   settings: () => ({ radius: settings.radius(), density: settings.density(), push: settings.push() }),
   walls: () => welcome?.scene.walls ?? [],
+  // kg: the snapshot's when the scene sends masses; otherwise the panel's density is assumed.
   mass_of: (frame, i) => (frame.mass ? frame.mass[i] : settings.density() * (4 / 3) * Math.PI * frame.radius[i] ** 3),
   on_spawn: (position, radius, density) => send({ type: 'spawn', body: { position, radius, density } }),
   on_impulse: (id, impulse) => send({ type: 'impulse', id, impulse }),

@@ -30,4 +30,5 @@ test('a refusal reads as a sentence that names the command', () => {
   assert.equal(headline, 'Spawn refused: the sphere would cross a wall or an obstacle');
   assert.equal(code, 'overlaps_wall');
   assert.equal(describe_error({ code: 'bad_json', message: '/: not valid JSON' }, null).headline, 'The server refused a message: /: not valid JSON');
+  assert.equal(describe_error({ code: 'not_connected', message: '' }, 'impulse').headline, 'Impulse not sent: the page is not connected to the server');
 });
