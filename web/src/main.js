@@ -2,7 +2,7 @@
 // and turns clicks and drags into spawn and impulse commands.
 //
 // window.kugel exposes the page's state (connection, tick, bodies, answers to commands) and
-// a few read-only helpers, for scripts and for the end-to-end test.
+// a few read-only functions, for scripts and for the end-to-end test.
 import { colour_bodies, max_charge, round_up, speed_quantile } from './colour_scale.js';
 import { Connection, room_url } from './connection.js';
 import { Hud } from './hud.js';

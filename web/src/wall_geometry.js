@@ -17,8 +17,8 @@ export function unit_wall(wall) {
 
 /** Two unit vectors u, w along the plane with u × w = n. */
 export function plane_basis(n) {
-  const helper = Math.abs(n[2]) < 0.9 ? [0, 0, 1] : [1, 0, 0];
-  const u = cross(helper, n);
+  const reference = Math.abs(n[2]) < 0.9 ? [0, 0, 1] : [1, 0, 0]; // any axis not along n
+  const u = cross(reference, n);
   const u_unit = scale(u, 1 / Math.hypot(...u));
   return [u_unit, cross(n, u_unit)];
 }
