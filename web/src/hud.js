@@ -1,0 +1,133 @@
+// The heads-up display: connection state, room (and a picker when the server hosts several),
+// tick, bodies, snapshots per second, round trip, server tick time, frame rate; the colour
+// legend; and the server's errors as readable messages.
+import { charge_stops, speed_stops } from './colour_scale.js';
+
+const message_seconds = 8; // how long an error stays on screen
+const max_messages = 4;
+
+/** What an error code means for the person who clicked, in words. */
+const plain_words = {
+  outside_world: 'that point is outside the world',
+  overlaps_wall: 'the sphere would cross a wall or an obstacle',
+  room_full: 'the room is full',
+  rate_limited: 'too many commands at once, try again in a moment',
+  unknown_body: 'that sphere is no longer in the world',
+  bad_value: 'a value is out of range',
+  missing_field: 'a value is missing',
+};
+
+/** A readable line for an `error` message; `command` is the refused command's type, if known. */
+export function describe_error(error, command) {
+  if (error.code === 'not_connected') {
+    return { headline: `${capitalised(command ?? 'command')} not sent: the page is not connected to the server`, code: error.code, detail: error.message };
+  }
+  const what = command ? `${capitalised(command)} refused` : 'The server refused a message';
+  const why = plain_words[error.code] ?? error.message;
+  return { headline: `${what}: ${why}`, code: error.code, detail: error.message };
+}
+
+export class Hud {
+  constructor(document) {
+    const $ = (id) => document.getElementById(id);
+    this.document = document;
+    this.connection = $('hud-connection');
+    this.room = $('hud-room');
+    this.picker = $('room-picker');
+    this.scene = $('hud-scene');
+    this.tick = $('hud-tick');
+    this.bodies = $('hud-bodies');
+    this.snapshot_rate = $('hud-snapshot-rate');
+    this.rtt = $('hud-rtt');
+    this.tick_time = $('hud-tick-time');
+    this.fps = $('hud-fps');
+    this.messages = $('messages');
+    this.legend_title = $('legend-title');
+    this.legend_bar = $('legend-bar');
+    this.legend_min = $('legend-min');
+    this.legend_mid = $('legend-mid');
+    this.legend_max = $('legend-max');
+  }
+
+  set_connection(state, detail) {
+    this.connection.dataset.state = state;
+    this.connection.textContent = state === 'reconnecting' && detail !== undefined ? `reconnecting in ${detail.toFixed(1)} s` : state;
+  }
+
+  /** The room shown; with more than one room, a picker that calls on_pick(name). */
+  set_rooms(current, rooms, on_pick) {
+    this.room.textContent = current;
+    const several = rooms.length > 1;
+    this.room.hidden = several;
+    this.picker.hidden = !several;
+    if (!several) return;
+    this.picker.replaceChildren(
+      ...rooms.map((name) => {
+        const option = this.document.createElement('option');
+        option.value = name;
+        option.textContent = name;
+        option.selected = name === current;
+        return option;
+      }),
+    );
+    this.picker.onchange = () => on_pick(this.picker.value);
+  }
+
+  set_scene(name) {
+    this.scene.textContent = name;
+  }
+
+  /** stats: {tick, bodies, snapshots_per_second, rtt_ms, tick_ms, frames_per_second}; null shows a dash. */
+  update(stats) {
+    const show = (element, value, format) => {
+      element.textContent = value === null || value === undefined ? '–' : format(value);
+    };
+    show(this.tick, stats.tick, String);
+    show(this.bodies, stats.bodies, String);
+    show(this.snapshot_rate, stats.snapshots_per_second, (v) => v.toFixed(1));
+    show(this.rtt, stats.rtt_ms, (v) => `${v.toFixed(1)} ms`);
+    this.tick_time.textContent = typeof stats.tick_ms === 'number' ? `${stats.tick_ms.toFixed(2)} ms` : 'n/a';
+    show(this.fps, stats.frames_per_second, (v) => v.toFixed(0));
+  }
+
+  /** The legend of the colour scale: mode 'speed' (0 to max m/s) or 'charge' (-max to max C). */
+  set_legend(mode, max) {
+    const stops = mode === 'charge' ? charge_stops : speed_stops;
+    this.legend_bar.style.background = `linear-gradient(to right, ${stops.join(', ')})`;
+    if (mode === 'charge') {
+      this.legend_title.textContent = max > 0 ? 'charge (C)' : 'charge: this scene has no charges';
+      this.legend_min.textContent = max > 0 ? format_number(-max) : '';
+      this.legend_mid.textContent = '0';
+      this.legend_max.textContent = max > 0 ? format_number(max) : '';
+    } else {
+      this.legend_title.textContent = 'speed (m/s)';
+      this.legend_min.textContent = '0';
+      this.legend_mid.textContent = format_number(max / 2);
+      this.legend_max.textContent = `≥ ${format_number(max)}`;
+    }
+  }
+
+  /** Shows a readable error for a while. */
+  show_error(error, command) {
+    const { headline, code, detail } = describe_error(error, command);
+    const element = this.document.createElement('div');
+    element.className = 'message';
+    const code_element = this.document.createElement('code');
+    code_element.textContent = code;
+    element.append(`${headline} `, code_element);
+    element.title = detail;
+    this.messages.append(element);
+    while (this.messages.children.length > max_messages) this.messages.firstElementChild.remove();
+    setTimeout(() => element.remove(), message_seconds * 1000);
+  }
+}
+
+function capitalised(word) {
+  return word[0].toUpperCase() + word.slice(1);
+}
+
+function format_number(x) {
+  const a = Math.abs(x);
+  if (a !== 0 && (a < 0.01 || a >= 1e4)) return x.toExponential(0);
+  return String(Number(x.toPrecision(3)));
+}

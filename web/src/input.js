@@ -1,0 +1,141 @@
+// What the pointer does. A click (press and release without moving) on the floor, a wall or
+// an obstacle spawns a sphere resting on it; a drag that starts on a sphere pushes that
+// sphere, with an arrow showing the push while dragging; any other drag orbits the camera.
+import * as THREE from 'three';
+import { dot, unit_wall } from './wall_geometry.js';
+
+const click_slop = 5; // px: a press that moves less than this is a click
+const arrow_colour = 0xffe066;
+
+/**
+ * Where to put a new sphere of radius r for a click on a surface: on the surface, and
+ * moved off any wall it would cross, since the server refuses a sphere across a wall.
+ */
+export function spawn_position(point, normal, r, walls) {
+  const gap = 0.02 * r; // m: starts just clear of the surface
+  const p = [0, 1, 2].map((k) => point[k] + normal[k] * (r + gap));
+  for (const wall of walls.map(unit_wall)) {
+    const distance = dot(wall.normal, p) - wall.offset;
+    if (distance < r + gap) for (let k = 0; k < 3; k++) p[k] += wall.normal[k] * (r + gap - distance);
+  }
+  return p;
+}
+
+export class PointerInput {
+  /**
+   * view: the SceneView. settings(): {radius, density, push} from the panel.
+   * on_spawn(position, radius, density), on_impulse(id, impulse, delta_v).
+   * walls(): the current scene's walls. mass_of(frame, index): the body's mass in kg.
+   */
+  constructor({ view, settings, walls, mass_of, on_spawn, on_impulse, label }) {
+    this.view = view;
+    this.settings = settings;
+    this.walls = walls;
+    this.mass_of = mass_of;
+    this.on_spawn = on_spawn;
+    this.on_impulse = on_impulse;
+    this.label = label; // an element that shows the push next to the pointer
+    this.press = null; // {x, y, pointer} of a press that may become a click
+    this.drag = null; // {id, pointer, x, y} while pushing a sphere
+    this.arrow = new THREE.ArrowHelper(new THREE.Vector3(1, 0, 0), new THREE.Vector3(), 1, arrow_colour);
+    for (const part of [this.arrow.line, this.arrow.cone]) {
+      part.material.depthTest = false; // drawn over the spheres it starts in
+      part.renderOrder = 10;
+    }
+    this.arrow.visible = false;
+    view.scene.add(this.arrow);
+
+    const canvas = view.canvas;
+    // Capture phase: decide before the orbit controls see the press.
+    canvas.addEventListener('pointerdown', (e) => this.on_down(e), { capture: true });
+    canvas.addEventListener('pointermove', (e) => this.on_move(e));
+    canvas.addEventListener('pointerup', (e) => this.on_up(e));
+    canvas.addEventListener('pointercancel', () => this.cancel());
+  }
+
+  on_down(event) {
+    if (event.button !== 0 || this.drag) return;
+    const index = this.view.body_at(event.clientX, event.clientY);
+    if (index < 0) {
+      this.press = { x: event.clientX, y: event.clientY, pointer: event.pointerId };
+      return;
+    }
+    this.view.controls.enabled = false;
+    this.view.canvas.setPointerCapture(event.pointerId);
+    this.drag = { id: this.view.frame.id[index], pointer: event.pointerId, x: event.clientX, y: event.clientY };
+    this.update_arrow();
+  }
+
+  on_move(event) {
+    if (this.press && Math.hypot(event.clientX - this.press.x, event.clientY - this.press.y) > click_slop) this.press = null;
+    if (!this.drag || event.pointerId !== this.drag.pointer) return;
+    this.drag.x = event.clientX;
+    this.drag.y = event.clientY;
+    this.update_arrow();
+  }
+
+  on_up(event) {
+    if (this.drag && event.pointerId === this.drag.pointer) {
+      const push = this.push();
+      this.cancel();
+      if (push && push.delta_v.length() > 1e-6) {
+        this.on_impulse(push.id, push.delta_v.clone().multiplyScalar(push.mass).toArray(), push.delta_v.toArray());
+      }
+      return;
+    }
+    if (!this.press || event.pointerId !== this.press.pointer) return;
+    this.press = null;
+    const hit = this.view.surface_at(event.clientX, event.clientY);
+    if (!hit) return;
+    const { radius, density } = this.settings();
+    this.on_spawn(spawn_position(hit.point.toArray(), hit.normal.toArray(), radius, this.walls()), radius, density);
+  }
+
+  cancel() {
+    this.drag = null;
+    this.press = null;
+    this.arrow.visible = false;
+    this.label.hidden = true;
+    this.view.controls.enabled = true;
+  }
+
+  /** The push being dragged: the body, its mass and the change of velocity, or null. */
+  push() {
+    const frame = this.view.frame;
+    const index = frame ? index_in(frame, this.drag.id) : -1;
+    if (index < 0) return null;
+    const centre = new THREE.Vector3().fromArray(frame.position, 3 * index);
+    const pointer = this.view.point_facing_camera(this.drag.x, this.drag.y, centre);
+    if (!pointer) return null;
+    const delta_v = pointer.sub(centre).multiplyScalar(this.settings().push); // m/s per m dragged
+    return { id: this.drag.id, centre, delta_v, mass: this.mass_of(frame, index) };
+  }
+
+  /** Follows the dragged body each frame, so the arrow stays on it while it moves. */
+  update_arrow() {
+    if (!this.drag) return;
+    const push = this.push();
+    if (!push) {
+      this.cancel(); // the body left the world
+      return;
+    }
+    const length = push.delta_v.length() / this.settings().push;
+    this.arrow.visible = length > 1e-6;
+    this.arrow.position.copy(push.centre);
+    if (length > 1e-6) {
+      this.arrow.setDirection(push.delta_v.clone().normalize());
+      this.arrow.setLength(length, Math.min(0.3 * length, 0.5), Math.min(0.15 * length, 0.25));
+    }
+    const speed = push.delta_v.length();
+    this.label.hidden = false;
+    this.label.style.left = `${this.drag.x + 14}px`;
+    this.label.style.top = `${this.drag.y + 14}px`;
+    const impulse = speed * push.mass;
+    this.label.textContent = `Δv ${speed.toFixed(2)} m/s · J ${impulse.toFixed(impulse >= 100 ? 0 : 2)} N·s`;
+  }
+}
+
+function index_in(frame, id) {
+  for (let i = 0; i < frame.count; i++) if (frame.id[i] === id) return i;
+  return -1;
+}

@@ -1,0 +1,236 @@
+// The page: joins a room, buffers its snapshots, draws them a little in the past every frame,
+// and turns clicks and drags into spawn and impulse commands.
+//
+// window.kugel exposes the page's state (connection, tick, bodies, answers to commands) and
+// a few read-only functions, for scripts and for the end-to-end test.
+import { colour_bodies, max_charge, round_up, speed_quantile } from './colour_scale.js';
+import { Connection, room_url } from './connection.js';
+import { Hud } from './hud.js';
+import { PointerInput } from './input.js';
+import { index_of, PlaybackClock, SnapshotBuffer } from './interpolation.js';
+import { choose_room, list_rooms } from './rooms.js';
+import { SceneView } from './scene_view.js';
+
+const kept_answers = 20; // acks and errors remembered in window.kugel.state
+const speed_scale_hold = 3; // s: the speed legend shrinks only after this long below its maximum
+
+const hud = new Hud(document);
+const view = new SceneView(document.getElementById('view'));
+const buffer = new SnapshotBuffer();
+const number_input = (id) => {
+  const input = document.getElementById(id);
+  return () => Number(input.value) || Number(input.defaultValue);
+};
+const settings = {
+  radius: number_input('spawn-radius'), // m
+  density: number_input('spawn-density'), // kg/m³
+  push: number_input('push-strength'), // m/s of Δv per m dragged
+};
+const colour_mode = document.getElementById('colour-mode');
+
+const state = {
+  connection: 'connecting',
+  room: null,
+  rooms: [],
+  scene: null,
+  tick: null,
+  bodies: null,
+  snapshots_per_second: null,
+  rtt_ms: null,
+  tick_ms: null,
+  frames_per_second: null,
+  parser: null, // where snapshots are parsed: 'worker' or 'main thread'
+  frames: 0, // frames drawn with bodies in them
+  welcomes: 0,
+  acks: [], // the last few: {ref, tick, id, command}
+  errors: [], // the last few: {ref, code, message, command}
+};
+
+let connection = null;
+let welcome = null;
+let clock = null;
+let colours = new Float32Array(0);
+const commands = new Map(); // ref -> command type, until answered
+const snapshot_arrivals = []; // local s, the last second's
+const frame_times = []; // local s, the last second's
+let speed_scale = { max: 1, since: 0 }; // m/s and when it was last reached
+let charge_scale = 0; // C
+
+const input = new PointerInput({
+  view,
+  settings: () => ({ radius: settings.radius(), density: settings.density(), push: settings.push() }),
+  walls: () => welcome?.scene.walls ?? [],
+  // kg: the snapshot's when the scene sends masses; otherwise the panel's density is assumed.
+  mass_of: (frame, i) => (frame.mass ? frame.mass[i] : settings.density() * (4 / 3) * Math.PI * frame.radius[i] ** 3),
+  on_spawn: (position, radius, density) => send({ type: 'spawn', body: { position, radius, density } }),
+  on_impulse: (id, impulse) => send({ type: 'impulse', id, impulse }),
+  label: document.getElementById('push-label'),
+});
+
+function send(command) {
+  const ref = connection?.send(command) ?? null;
+  if (ref === null) {
+    hud.show_error({ code: 'not_connected', message: 'not connected to the server' }, command.type);
+    return null;
+  }
+  commands.set(ref, command.type);
+  if (commands.size > 200) commands.delete(commands.keys().next().value);
+  return ref;
+}
+
+function remember(list, entry) {
+  list.push(entry);
+  if (list.length > kept_answers) list.shift();
+}
+
+function on_message(message, snapshot) {
+  switch (message.type) {
+    case 'welcome':
+      on_welcome(message);
+      break;
+    case 'snapshot':
+      on_snapshot(message, snapshot);
+      break;
+    case 'ack': {
+      const command = commands.get(message.ref) ?? null;
+      commands.delete(message.ref);
+      remember(state.acks, { ref: message.ref, tick: message.tick, id: message.id ?? null, command });
+      break;
+    }
+    case 'error': {
+      const command = commands.get(message.ref) ?? null;
+      commands.delete(message.ref);
+      hud.show_error(message, command);
+      remember(state.errors, { ref: message.ref ?? null, code: message.code, message: message.message, command });
+      break;
+    }
+    case 'pong':
+      if (typeof message.tick_ms === 'number') state.tick_ms = message.tick_ms;
+      break;
+    default:
+      break; // later protocol versions may add messages: ignored
+  }
+}
+
+function on_welcome(message) {
+  // The camera stays where the person left it when the same room comes back after a reconnect.
+  const same_scene = welcome?.room === message.room && welcome?.scene.name === message.scene.name;
+  welcome = message;
+  state.welcomes++;
+  state.room = message.room;
+  state.scene = message.scene.name;
+  buffer.clear();
+  const rate = message.dt * message.tick_rate; // simulated s per s
+  clock = new PlaybackClock({ delay: (2 * rate) / message.snapshot_rate, rate });
+  view.set_scene(message.scene, { frame_camera: !same_scene });
+  hud.set_scene(message.scene.name);
+}
+
+function on_snapshot(message, snapshot) {
+  const now = snapshot.received_at;
+  if (!buffer.push(snapshot)) return;
+  clock?.on_snapshot(snapshot.time, now);
+  snapshot_arrivals.push(now);
+  state.tick = snapshot.tick;
+  state.bodies = snapshot.count;
+  if (typeof message.tick_ms === 'number') state.tick_ms = message.tick_ms;
+  const speed = round_up(speed_quantile(snapshot, 0.98), 0.5);
+  if (speed >= speed_scale.max || now - speed_scale.since > speed_scale_hold) speed_scale = { max: speed, since: now };
+  const charge = max_charge(snapshot);
+  charge_scale = charge > 0 ? round_up(charge) : 0;
+}
+
+function connect(room) {
+  connection?.close();
+  state.room = room;
+  hud.set_rooms(room, state.rooms, switch_room);
+  connection = new Connection({
+    url: room_url(room),
+    worker_url: 'parse_worker.js',
+    on_message,
+    on_state: (s, detail) => {
+      state.connection = s;
+      hud.set_connection(s, detail);
+    },
+  });
+  state.parser = connection.worker ? 'worker' : 'main thread';
+  connection.open();
+}
+
+function switch_room(room) {
+  const url = new URL(window.location.href);
+  url.searchParams.set('room', room);
+  window.history.replaceState(null, '', url);
+  connect(room);
+}
+
+function drop_older_than(times, now) {
+  while (times.length && times[0] < now - 1) times.shift();
+}
+
+function animate(now_ms) {
+  const now = now_ms / 1000;
+  const t = clock?.time(now) ?? null;
+  if (t !== null && buffer.length) {
+    const frame = buffer.sample(t);
+    if (colours.length < 3 * frame.count) colours = new Float32Array(2 * 3 * frame.count);
+    const mode = colour_mode.value;
+    colour_bodies(frame, mode, mode === 'charge' ? charge_scale || 1 : speed_scale.max, colours);
+    view.set_bodies(frame, colours);
+    input.update_arrow();
+    state.frames++;
+  }
+  view.render();
+  frame_times.push(now);
+  requestAnimationFrame(animate);
+}
+
+function update_hud() {
+  const now = performance.now() / 1000;
+  drop_older_than(snapshot_arrivals, now);
+  drop_older_than(frame_times, now);
+  state.snapshots_per_second = state.connection === 'connected' ? snapshot_arrivals.length : 0;
+  state.frames_per_second = frame_times.length;
+  state.rtt_ms = connection?.rtt_ms ?? null;
+  hud.update(state);
+  const mode = colour_mode.value;
+  hud.set_legend(mode, mode === 'charge' ? charge_scale : speed_scale.max);
+}
+
+window.kugel = {
+  state,
+  /** The newest snapshot as plain arrays, or null. */
+  latest() {
+    const s = buffer.newest;
+    if (!s) return null;
+    return { tick: s.tick, time: s.time, id: Array.from(s.id), position: Array.from(s.position), velocity: Array.from(s.velocity) };
+  },
+  /** One body in the newest snapshot: {position, velocity, radius}, or null. */
+  body(id) {
+    const s = buffer.newest;
+    const i = s ? index_of(s, id) : -1;
+    if (i < 0) return null;
+    return {
+      position: Array.from(s.position.subarray(3 * i, 3 * i + 3)),
+      velocity: Array.from(s.velocity.subarray(3 * i, 3 * i + 3)),
+      radius: s.radius[i],
+    };
+  },
+  /** Where a world point appears on the page, in CSS pixels. */
+  screen_of: (x, y, z) => view.screen_of(x, y, z),
+  /** The id of the sphere drawn under a point of the page (CSS pixels), or null. */
+  body_at(x, y) {
+    const i = view.body_at(x, y);
+    return i < 0 ? null : view.frame.id[i];
+  },
+};
+
+async function start() {
+  state.rooms = await list_rooms();
+  const requested = new URLSearchParams(window.location.search).get('room');
+  connect(choose_room(state.rooms, requested));
+  setInterval(update_hud, 250);
+  requestAnimationFrame(animate);
+}
+
+start();

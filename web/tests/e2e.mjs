@@ -1,0 +1,290 @@
+// End-to-end test of the page, the way a person uses it: kugel-server serves the built page
+// and two rooms, headless Chromium (WebGL through SwiftShader) opens it, and Playwright
+// clicks and drags. Screenshots go to --screenshots for a person to look at.
+//
+//   node tests/e2e.mjs --server ../build/release/server/kugel-server \
+//       [--web-root dist] [--chromium /usr/bin/chromium] [--screenshots DIR]
+//
+// Every wait is bounded and says what it was waiting for; no test asserts a wall-clock time.
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import { spawn } from 'node:child_process';
+import { existsSync, mkdirSync } from 'node:fs';
+import { dirname, join, resolve } from 'node:path';
+import { fileURLToPath } from 'node:url';
+import { parseArgs } from 'node:util';
+import { chromium } from 'playwright-core';
+
+const web = resolve(dirname(fileURLToPath(import.meta.url)), '..');
+const { values: options } = parseArgs({
+  options: {
+    server: { type: 'string', default: join(web, '..', 'build', 'release', 'server', 'kugel-server') },
+    'web-root': { type: 'string', default: join(web, 'dist') },
+    chromium: { type: 'string', default: '/usr/bin/chromium' },
+    screenshots: { type: 'string', default: join(web, '..', 'build', 'release', 'web-screenshots') },
+  },
+});
+
+const wait_seconds = 30; // the longest any one wait may take
+const viewport = { width: 1280, height: 800 };
+// Chromium as root in a container, without a GPU and without a network beyond this machine.
+const chromium_args = [
+  '--no-sandbox',
+  '--use-angle=swiftshader', // WebGL in software
+  '--enable-unsafe-swiftshader',
+  '--disable-background-networking',
+  '--disable-component-update',
+  '--disable-sync',
+  '--no-first-run',
+  '--disable-quic',
+];
+
+let server = null; // {process, port, log}
+let browser = null;
+let page = null;
+const page_problems = []; // uncaught exceptions and console errors on the page
+
+// ---------------------------------------------------------------- the server
+
+/** Starts kugel-server with the test's rooms; resolves once it logs its port. */
+function start_server(port = 0) {
+  const args = [
+    '--port', String(port),
+    '--web-root', options['web-root'],
+    '--room', `resting=${join(web, 'tests', 'resting.json')}`,
+    '--room', `arena=${join(web, '..', 'scenes', 'arena.json')}`,
+  ];
+  const child = spawn(options.server, args, { stdio: ['ignore', 'ignore', 'pipe'] });
+  const started = { process: child, port: null, log: '' };
+  return new Promise((resolve_start, reject) => {
+    const timer = setTimeout(() => reject(new Error(`kugel-server did not log "serving on" within ${wait_seconds} s; its log:\n${started.log}`)), wait_seconds * 1000);
+    child.stderr.setEncoding('utf8');
+    child.stderr.on('data', (text) => {
+      started.log += text;
+      const match = started.log.match(/serving on http:\/\/[^:]+:(\d+)\//);
+      if (match && started.port === null) {
+        started.port = Number(match[1]);
+        clearTimeout(timer);
+        resolve_start(started);
+      }
+    });
+    child.on('error', (error) => reject(new Error(`cannot start ${options.server}: ${error.message}`)));
+    child.on('exit', (code, signal) => {
+      if (started.port === null) reject(new Error(`kugel-server exited (${code ?? signal}) before serving; its log:\n${started.log}`));
+    });
+  });
+}
+
+function stop_server(started) {
+  if (!started || started.process.exitCode !== null) return Promise.resolve();
+  return new Promise((done) => {
+    started.process.once('exit', done);
+    started.process.kill('SIGTERM');
+  });
+}
+
+process.on('exit', () => server?.process.kill('SIGKILL'));
+
+// ---------------------------------------------------------------- the page
+
+/**
+ * Polls `condition` in the page (a function of window.kugel and `arg`) until it returns a
+ * truthy value, which it returns; after `seconds` fails naming what was missing and
+ * showing the page's state.
+ */
+async function wait_for(what, condition, arg, seconds = wait_seconds) {
+  const deadline = Date.now() + seconds * 1000;
+  for (;;) {
+    const value = await page.evaluate(({ source, arg }) => {
+      const f = new Function('kugel', 'arg', `return (${source})(kugel, arg);`);
+      return window.kugel ? f(window.kugel, arg) : null;
+    }, { source: condition.toString(), arg });
+    if (value) return value;
+    if (Date.now() > deadline) {
+      const state = await page.evaluate(() => window.kugel?.state ?? 'window.kugel is not defined');
+      throw new Error(`timed out after ${seconds} s waiting for ${what}\npage state: ${JSON.stringify(state)}\npage problems: ${JSON.stringify(page_problems)}`);
+    }
+    await new Promise((r) => setTimeout(r, 100));
+  }
+}
+
+const state = () => page.evaluate(() => window.kugel.state);
+const hud_number = async (id) => Number.parseInt(await page.locator(`#${id}`).textContent(), 10);
+
+async function screenshot(name) {
+  const path = join(options.screenshots, `${name}.png`);
+  await page.screenshot({ path });
+  return path;
+}
+
+/** Pixels of the WebGL canvas, read right after the page drew a frame: how many differ from the background, and how many colours. */
+function canvas_coverage() {
+  return page.evaluate(
+    () =>
+      new Promise((resolve_coverage) => {
+        // Registered after the page's own frame callback, so this runs after it drew.
+        requestAnimationFrame(() => {
+          const canvas = document.getElementById('view');
+          const copy = document.createElement('canvas');
+          copy.width = canvas.width;
+          copy.height = canvas.height;
+          const context = copy.getContext('2d');
+          context.drawImage(canvas, 0, 0);
+          const pixels = context.getImageData(0, 0, copy.width, copy.height).data;
+          const background = [0x12, 0x16, 0x1c];
+          let drawn = 0;
+          const colours = new Set();
+          for (let i = 0; i < pixels.length; i += 4) {
+            const d = Math.abs(pixels[i] - background[0]) + Math.abs(pixels[i + 1] - background[1]) + Math.abs(pixels[i + 2] - background[2]);
+            if (d > 24) drawn++;
+            colours.add((pixels[i] >> 3) * 1024 + (pixels[i + 1] >> 3) * 32 + (pixels[i + 2] >> 3));
+          }
+          resolve_coverage({ drawn: drawn / (copy.width * copy.height), colours: colours.size, width: copy.width, height: copy.height });
+        });
+      }),
+  );
+}
+
+/** A body of the resting room that the page picks when pressed at its centre, and that point. */
+async function pickable_body() {
+  return wait_for('a sphere of the resting room that is not hidden behind another', (kugel) => {
+    const latest = kugel.latest();
+    if (!latest) return null;
+    for (let i = 0; i < latest.id.length; i++) {
+      const [x, y, z] = latest.position.slice(3 * i, 3 * i + 3);
+      const point = kugel.screen_of(x, y, z);
+      if (kugel.body_at(point.x, point.y) === latest.id[i]) return { id: latest.id[i], x: point.x, y: point.y };
+    }
+    return null;
+  });
+}
+
+async function open_room(room) {
+  await page.goto(`http://127.0.0.1:${server.port}/?room=${room}`);
+  await wait_for(`the page to connect to room "${room}"`, (kugel, room) => kugel.state.connection === 'connected' && kugel.state.room === room && kugel.state.bodies > 0, room);
+}
+
+before(async () => {
+  for (const [what, path] of [
+    ['kugel-server', options.server],
+    ['the built page (the normal build runs the bundler)', join(options['web-root'], 'index.html')],
+    ['Chromium (script/bootstrap installs Debian\'s chromium)', options.chromium],
+  ]) {
+    if (!existsSync(path)) throw new Error(`missing ${what}: ${path}`);
+  }
+  mkdirSync(options.screenshots, { recursive: true });
+  server = await start_server();
+  // Playwright gives the browser a fresh, empty profile (--user-data-dir) of its own.
+  browser = await chromium.launch({ executablePath: options.chromium, headless: true, args: chromium_args });
+  page = await browser.newPage({ viewport });
+  page.on('pageerror', (error) => page_problems.push(`uncaught: ${error.message}`));
+  page.on('console', (message) => {
+    if (message.type() === 'error') page_problems.push(`console: ${message.text()}`);
+  });
+});
+
+after(async () => {
+  await browser?.close();
+  await stop_server(server);
+});
+
+// ---------------------------------------------------------------- the tests
+
+test('the page loads, connects and shows the world in its HUD: bodies and an advancing tick', async () => {
+  await page.goto(`http://127.0.0.1:${server.port}/`);
+  // Two rooms and neither is "default": the page joins the first and offers the other.
+  await wait_for('the HUD to show "connected"', () => document.getElementById('hud-connection').textContent === 'connected');
+  await wait_for('bodies > 0 in the HUD', () => Number.parseInt(document.getElementById('hud-bodies').textContent, 10) > 0);
+  const first_tick = await hud_number('hud-tick');
+  await wait_for(`the HUD's tick to advance past ${first_tick}`, (kugel, first) => Number.parseInt(document.getElementById('hud-tick').textContent, 10) > first, first_tick);
+  const s = await state();
+  assert.equal(s.room, 'arena');
+  assert.equal(s.bodies, 400);
+  assert.deepEqual(s.rooms, ['arena', 'resting']);
+  assert.equal(s.parser, 'worker', 'snapshots are parsed off the main thread');
+  await wait_for('a round trip time in the HUD', () => /ms$/.test(document.getElementById('hud-rtt').textContent));
+  assert.equal(await page.locator('#hud-tick-time').textContent(), 'n/a', 'the server reports no tick time yet');
+  assert.ok(await page.locator('#room-picker').isVisible(), 'a room picker when the server hosts several rooms');
+});
+
+test('the canvas draws the scene: not blank, many colours', async () => {
+  await wait_for('frames drawn with bodies', (kugel) => kugel.state.frames >= 3);
+  const coverage = await canvas_coverage();
+  await screenshot('arena');
+  assert.ok(coverage.drawn > 0.05, `only ${(100 * coverage.drawn).toFixed(2)} % of the ${coverage.width}x${coverage.height} canvas differs from the background`);
+  assert.ok(coverage.colours > 50, `only ${coverage.colours} distinct colours on the canvas`);
+});
+
+test('the room picker switches rooms', async () => {
+  await page.locator('#room-picker').selectOption('resting');
+  await wait_for('the page to join room "resting" with its 9 bodies', (kugel) => kugel.state.room === 'resting' && kugel.state.scene === 'resting' && kugel.state.bodies === 9);
+  assert.match(page.url(), /\?room=resting$/);
+});
+
+test('a click on the floor spawns a sphere there, and the server confirms it', async () => {
+  await open_room('resting');
+  const before_count = (await state()).bodies;
+  const floor = await page.evaluate(() => window.kugel.screen_of(2, -2, 0));
+  await page.mouse.click(floor.x, floor.y);
+  const ack = await wait_for('an ack of the spawn with the new body\'s id', (kugel) => kugel.state.acks.find((a) => a.command === 'spawn' && a.id !== null));
+  await wait_for(`the body count to rise from ${before_count}`, (kugel, n) => kugel.state.bodies === n + 1, before_count);
+  const body = await wait_for(`body ${ack.id} in a snapshot`, (kugel, id) => kugel.body(id), ack.id);
+  const radius = Number(await page.locator('#spawn-radius').inputValue());
+  assert.ok(Math.abs(body.position[0] - 2) < 0.05 && Math.abs(body.position[1] + 2) < 0.05, `spawned at ${body.position}, clicked at (2, -2, 0)`);
+  assert.ok(Math.abs(body.position[2] - radius) < 0.05 * radius + 1e-9, `resting on the floor: z = ${body.position[2]}, radius ${radius}`);
+  await wait_for(`the HUD to show ${before_count + 1} bodies`, (kugel, n) => document.getElementById('hud-bodies').textContent === String(n), before_count + 1);
+  await screenshot('spawned');
+});
+
+test('a drag from a sphere pushes it: its velocity changes in the next snapshots', async () => {
+  const target = await pickable_body();
+  const before_push = await page.evaluate((id) => window.kugel.body(id), target.id);
+  assert.deepEqual(before_push.velocity, [0, 0, 0], 'the resting room\'s spheres are at rest');
+  await page.mouse.move(target.x, target.y);
+  await page.mouse.down();
+  await page.mouse.move(target.x - 160, target.y - 40, { steps: 8 });
+  await wait_for('the push label while dragging', () => !document.getElementById('push-label').hidden);
+  await screenshot('dragging');
+  await page.mouse.up();
+  const ack = await wait_for('an ack of the impulse', (kugel) => kugel.state.acks.find((a) => a.command === 'impulse'));
+  const moving = await wait_for(`body ${target.id} moving in a snapshot after tick ${ack.tick}`, (kugel, { id, tick }) => {
+    const latest = kugel.latest();
+    const body = kugel.body(id);
+    if (!latest || latest.tick < tick || !body) return null;
+    const speed = Math.hypot(...body.velocity);
+    return speed > 0.5 ? { speed, velocity: body.velocity } : null;
+  }, { id: target.id, tick: ack.tick });
+  assert.ok(moving.speed > 0.5, `speed ${moving.speed} m/s after the push`);
+  await screenshot('pushed');
+});
+
+test('a refused command shows a readable message on the page', async () => {
+  // A sphere wider than the box cannot be put anywhere in it.
+  await page.locator('#spawn-radius').fill('4');
+  const floor = await page.evaluate(() => window.kugel.screen_of(-2, 2, 0));
+  await page.mouse.click(floor.x, floor.y);
+  const error = await wait_for('an error answering the spawn', (kugel) => kugel.state.errors.find((e) => e.command === 'spawn'));
+  assert.equal(error.code, 'overlaps_wall');
+  const message = page.locator('#messages .message').last();
+  await message.waitFor({ state: 'visible', timeout: wait_seconds * 1000 });
+  assert.match(await message.textContent(), /Spawn refused: the sphere would cross a wall or an obstacle/);
+  await screenshot('refused');
+  await page.locator('#spawn-radius').fill('0.25');
+});
+
+test('the page reconnects by itself when the server restarts', async () => {
+  const port = server.port;
+  const welcomes = (await state()).welcomes;
+  await stop_server(server);
+  await wait_for('the HUD to say it is reconnecting', () => document.getElementById('hud-connection').textContent.startsWith('reconnecting'));
+  server = await start_server(port);
+  await wait_for('a new welcome after the restart', (kugel, n) => kugel.state.welcomes > n && kugel.state.connection === 'connected', welcomes);
+  await wait_for('the restarted room\'s 9 bodies', (kugel) => kugel.state.room === 'resting' && kugel.state.bodies === 9);
+  assert.equal(await page.locator('#hud-connection').textContent(), 'connected');
+});
+
+test('nothing went wrong on the page', () => {
+  // Chromium logs each refused connection attempt while the server restarts: expected.
+  const unexpected = page_problems.filter((p) => !/WebSocket connection to .* failed/.test(p));
+  assert.deepEqual(unexpected, []);
+});
