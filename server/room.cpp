@@ -72,7 +72,7 @@ room::room(net::io_context& io, std::string name, scene::scene const& s, setting
       period_(std::chrono::duration_cast<clock::duration>(
           std::chrono::duration<double>(1.0 / config.tick_rate))),
       world_(scene::build_world(s)), dt_(s.dt),
-      send_masses_(s.forces.gravity.has_value()), send_charges_(s.forces.coulomb.has_value())
+      send_charges_(s.forces.coulomb.has_value())
 {
     welcome_ = make_welcome(name_, s, world_, settings_);
     auto const ids = world_.bodies().ids();
@@ -291,8 +291,7 @@ std::shared_ptr<std::string const> room::encode_snapshot() const
             columns.velocity.push_back(bodies.velocities()[i][k]);
         }
     }
-    if (send_masses_)
-        columns.mass.emplace(bodies.masses().begin(), bodies.masses().end());
+    columns.mass.emplace(bodies.masses().begin(), bodies.masses().end()); // for J = m·Δv
     if (send_charges_)
         columns.charge.emplace(bodies.charges().begin(), bodies.charges().end());
     return share(protocol::encode(snapshot));

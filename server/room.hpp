@@ -99,8 +99,7 @@ private:
     physics::world world_;
     double dt_;                        ///< s per tick
     protocol::welcome welcome_;        ///< all but the client id
-    bool send_masses_;
-    bool send_charges_;
+    bool send_charges_; ///< the scene has Coulomb forces: snapshots carry charges
 
     // Bodies on the wire have ids 1, 2, 3, ... never reused, so a stale id can never name a
     // new body and every id stays below 2^53 (JavaScript's exact integers).

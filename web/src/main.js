@@ -60,7 +60,7 @@ const input = new PointerInput({
   view,
   settings: () => ({ radius: settings.radius(), density: settings.density(), push: settings.push() }),
   walls: () => welcome?.scene.walls ?? [],
-  // kg: the snapshot's when the scene sends masses; otherwise the panel's density is assumed.
+  // kg: the snapshot's (kugel-server always sends masses); a server without them: the panel's density.
   mass_of: (frame, i) => (frame.mass ? frame.mass[i] : settings.density() * (4 / 3) * Math.PI * frame.radius[i] ** 3),
   on_spawn: (position, radius, density) => send({ type: 'spawn', body: { position, radius, density } }),
   on_impulse: (id, impulse) => send({ type: 'impulse', id, impulse }),
