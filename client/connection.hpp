@@ -1,0 +1,189 @@
+#pragma once
+
+// A connection to one room of a Kugel server, for programs on the user's thread: connect,
+// send commands (each gets a ref), await the answer to a ref, take snapshots as they come
+// or wait until one satisfies a predicate, close. protocol/PROTOCOL.md is the conversation;
+// every message goes through kugel_protocol's codec.
+
+#include "client/latency_histogram.hpp"
+#include "protocol/messages.hpp"
+
+#include <chrono>
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <memory>
+#include <optional>
+#include <stdexcept>
+#include <string>
+#include <variant>
+
+namespace kugel::client {
+
+/// A command: what the server answers with an ack (or pong) or an error carrying its ref.
+using command = std::variant<protocol::spawn, protocol::impulse, protocol::remove, protocol::ping>;
+
+/// The server's answer to a command.
+using reply = std::variant<protocol::ack, protocol::error, protocol::pong>;
+
+/// The ref a reply carries, if any (an error for unreadable text may have none).
+std::optional<std::uint64_t> ref_of(reply const& r);
+
+/// The connection could not be made, or was lost where an answer was needed.
+class connection_error : public std::runtime_error
+{
+public:
+    using std::runtime_error::runtime_error;
+};
+
+struct connection_options
+{
+    /// Sent in a `hello` right after the welcome (the server logs it); empty sends no hello.
+    std::string name = "kugel-client";
+    /// How long connecting (resolve, TCP, upgrade) and the welcome may take.
+    std::chrono::milliseconds connect_timeout{10'000};
+    /// Snapshots received and not yet taken; a full queue drops its oldest.
+    std::size_t snapshot_queue = 256;
+    /// The longest message read; a longer one ends the connection. A snapshot takes about
+    /// 170 bytes per body.
+    std::size_t max_message_bytes = 64 * 1024 * 1024;
+    /// Messages given to send() and not yet written; a send beyond it throws.
+    std::size_t max_unsent = 4096;
+    /// Answers to this connection's refs kept for await_reply; beyond it the oldest go.
+    std::size_t kept_replies = 4096;
+    /// Answers that match none of this connection's refs (to send_text, mostly) kept for
+    /// next_unmatched_reply; beyond it the oldest go.
+    std::size_t kept_unmatched_replies = 256;
+    /// When set, called with every snapshot it can keep up with, on a thread of its own
+    /// (never the I/O thread): a newer snapshot replaces one it has not reached yet. It may
+    /// call the connection, but must not destroy it.
+    std::function<void(std::shared_ptr<protocol::snapshot const> const&)> on_snapshot;
+};
+
+/// How a connection ended.
+struct close_info
+{
+    std::uint16_t code = 0; ///< the close frame's code (1000, 1001, 1008, 1009); 0: none, the
+                            ///< connection just ended
+    std::string reason;     ///< the close frame's reason, or what went wrong
+    bool by_server = false; ///< the server ended it (false: this side called close())
+};
+
+/// What a connection counted since it opened. Counted on the I/O thread as messages
+/// arrive, so nothing here depends on how fast the user takes them.
+struct connection_stats
+{
+    std::chrono::steady_clock::time_point opened; ///< when the welcome arrived
+    std::uint64_t messages_received = 0;
+    std::uint64_t bytes_received = 0; ///< payload bytes of every message read
+    std::uint64_t messages_sent = 0;
+    std::uint64_t bytes_sent = 0; ///< payload bytes of every message written
+
+    std::uint64_t snapshots = 0;
+    std::uint64_t snapshots_dropped = 0; ///< fell out of the full snapshot queue untaken
+    std::uint64_t first_tick = 0;        ///< of the first snapshot
+    std::uint64_t last_tick = 0;         ///< of the latest snapshot
+    std::uint64_t tick_gap_min = 0;      ///< ticks between consecutive snapshots
+    std::uint64_t tick_gap_max = 0;
+    std::uint64_t tick_gaps = 0; ///< consecutive pairs counted
+    /// Gaps longer than the server's own (ceil(tick_rate / snapshot_rate)): snapshots the
+    /// server replaced because this client had not taken the previous one yet.
+    std::uint64_t late_snapshots = 0;
+
+    std::uint64_t commands_sent = 0;
+    std::uint64_t acks = 0;
+    std::uint64_t pongs = 0;
+    std::map<std::string, std::uint64_t> errors; ///< by wire code: "unknown_body": 2
+    latency_histogram ack_latency;               ///< send to ack, per acked command
+    latency_histogram pong_latency;              ///< send to pong
+
+    std::uint64_t ignored = 0;     ///< messages of types this client does not know
+    std::uint64_t undecodable = 0; ///< messages the codec refused
+    std::string last_undecodable;  ///< the codec's reason for the latest
+};
+
+/// Why wait_for_snapshot returned.
+enum class wait_outcome {
+    matched,    ///< a snapshot satisfied the predicate
+    past_limit, ///< a snapshot came after the tick limit and none had satisfied it
+    timed_out,  ///< the wall-clock timeout passed first
+    closed,     ///< the connection ended first
+};
+
+struct snapshot_wait
+{
+    wait_outcome outcome = wait_outcome::timed_out;
+    /// The snapshot that satisfied the predicate, else the last one looked at (may be null).
+    std::shared_ptr<protocol::snapshot const> snapshot;
+};
+
+/// One WebSocket connection to a room, with an I/O thread of its own. Every public function
+/// may be called from any thread; none runs user code on the I/O thread, which only reads,
+/// decodes, counts and hands over (snapshots through a bounded queue, answers by ref).
+class connection
+{
+public:
+    using clock = std::chrono::steady_clock;
+
+    /// Connects to `url` (ws://host:port/ws/ROOM), waits for the welcome, and says hello.
+    /// Throws url_error for a bad URL and connection_error when the server cannot be reached,
+    /// refuses the upgrade (no such room), or sends no welcome in time.
+    explicit connection(std::string const& url, connection_options options = {});
+    /// Closes (1000) if still open and waits for the I/O thread.
+    ~connection();
+    connection(connection const&) = delete;
+    connection& operator=(connection const&) = delete;
+
+    /// The server's welcome: room, tick rate, dt, the scene's geometry, the limits.
+    protocol::welcome const& welcome() const;
+
+    /// Sends a command with a fresh ref (1, 2, 3, ...: whatever ref it carries is replaced)
+    /// and returns that ref. Throws connection_error once the connection has ended.
+    std::uint64_t send(command c);
+    /// Sends a hello (it has no ref and is answered only when refused).
+    void send(protocol::hello const& h);
+    /// Sends text as it is: for testing how the server answers what it cannot read. Its
+    /// answer, if any, is read with next_unmatched_reply (give it a ref far from this
+    /// connection's own, or none, so that it cannot be taken for the answer to a send).
+    void send_text(std::string text);
+
+    /// The answer to `ref`, once it arrives; nullopt when none comes within `timeout` or the
+    /// connection ends first. Each answer is handed out once.
+    std::optional<reply> await_reply(std::uint64_t ref, std::chrono::milliseconds timeout);
+    /// The oldest answer that matches no ref this connection sent (for send_text), waiting up
+    /// to `timeout` for one.
+    std::optional<reply> next_unmatched_reply(std::chrono::milliseconds timeout);
+
+    /// The oldest snapshot not yet taken, waiting up to `timeout`; null when none came.
+    std::shared_ptr<protocol::snapshot const> next_snapshot(std::chrono::milliseconds timeout);
+    /// Takes every queued snapshot and returns the newest received; when none has ever been
+    /// received, waits up to `timeout` for one (null when none came).
+    std::shared_ptr<protocol::snapshot const>
+    take_latest_snapshot(std::chrono::milliseconds timeout);
+    /// Takes snapshots in the order they came until one satisfies `predicate`. Gives up at a
+    /// snapshot later than `max_ticks` ticks after the newest tick received when called,
+    /// after `timeout`, or when the connection ends. The predicate runs on the calling thread.
+    snapshot_wait wait_for_snapshot(std::function<bool(protocol::snapshot const&)> const& predicate,
+                                    std::uint64_t max_ticks, std::chrono::milliseconds timeout);
+    /// The tick of the newest snapshot received (0 before the first).
+    std::uint64_t latest_tick() const;
+
+    /// Closes with 1000 (normal) and waits, up to a second, for the server's close frame.
+    /// Does nothing when already closed.
+    void close();
+    /// Waits until the connection has ended (the server closed it, or it failed); nullopt
+    /// when it is still open after `timeout`.
+    std::optional<close_info> wait_closed(std::chrono::milliseconds timeout);
+    bool is_open() const;
+    /// How it ended; nullopt while open.
+    std::optional<close_info> closed_with() const;
+
+    connection_stats stats() const;
+
+private:
+    class session;
+    struct state;
+    std::unique_ptr<state> state_;
+};
+
+} // namespace kugel::client

@@ -1,0 +1,33 @@
+#pragma once
+
+// Runs a script against a server: each step in order, on the connection it names, until a
+// step fails or all have passed.
+
+#include "client/script.hpp"
+
+#include <chrono>
+#include <ostream>
+#include <string>
+
+namespace kugel::client {
+
+struct run_options
+{
+    std::string url; ///< ws://host:port/ws/ROOM: every client of the script connects here
+    /// How long to wait for an answer, a close or a first snapshot. Waits counted in ticks
+    /// get twice their ticks' worth of wall-clock time on top (see client/README.md).
+    std::chrono::milliseconds timeout{10'000};
+};
+
+struct run_result
+{
+    bool passed = false;
+    std::size_t failed_step = 0; ///< its number; 0 when every step passed
+    std::string failure;         ///< names the step, what was expected and what arrived
+};
+
+/// Runs every step; writes one line per step to `log` ("ok   step 3 ...") and, when a step
+/// fails, the failure (the same text as run_result::failure).
+run_result run_script(script const& s, run_options const& options, std::ostream& log);
+
+} // namespace kugel::client

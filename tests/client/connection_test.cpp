@@ -1,0 +1,261 @@
+// The client library against a real server in this process, on a free port. Nothing here
+// measures time: waits have generous timeouts, and pace is counted in ticks.
+
+#include "client/connection.hpp"
+#include "server.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <filesystem>
+#include <gtest/gtest.h>
+#include <thread>
+
+namespace kugel::client {
+namespace {
+
+using namespace std::chrono_literals;
+namespace fs = std::filesystem;
+
+fs::path example_scene(std::string const& name)
+{
+    return fs::path(KUGEL_SOURCE_DIR) / "client" / "examples" / "scenes" / (name + ".json");
+}
+
+/// A server with the example scenes as rooms "still" and "fall".
+class running_server
+{
+public:
+    explicit running_server(server::server_options options = {})
+        : server_(prepared(std::move(options)))
+    {
+        server_.start();
+    }
+    ~running_server() { stop(); }
+
+    void stop()
+    {
+        server_.stop();
+        server_.wait();
+    }
+    std::string url(std::string const& room = "still") const
+    {
+        return "ws://127.0.0.1:" + std::to_string(server_.port()) + "/ws/" + room;
+    }
+
+private:
+    static server::server_options prepared(server::server_options o)
+    {
+        o.port = 0;
+        o.threads = 2;
+        o.shutdown_grace = 200ms;
+        o.rooms = {{"still", example_scene("still")}, {"fall", example_scene("fall")}};
+        return o;
+    }
+    server::server server_;
+};
+
+protocol::spawn ball_at(protocol::vec3 position, double mass = 2.0)
+{
+    protocol::spawn s;
+    s.body.position = position;
+    s.body.radius = 0.25;
+    s.body.mass = mass;
+    return s;
+}
+
+TEST(Connection, ConnectsAndHasTheWelcome)
+{
+    running_server s;
+    connection c(s.url("fall"));
+    EXPECT_EQ(c.welcome().room, "fall");
+    EXPECT_EQ(c.welcome().scene.name, "fall");
+    EXPECT_EQ(c.welcome().dt, 0.015625);
+    EXPECT_EQ(c.welcome().protocol, protocol::protocol_version);
+    EXPECT_TRUE(c.is_open());
+    EXPECT_NE(c.next_snapshot(10s), nullptr);
+}
+
+TEST(Connection, SendGivesFreshRefsAndAwaitReplyTheirAnswers)
+{
+    running_server s;
+    connection c(s.url());
+    std::uint64_t const spawn_ref = c.send(ball_at({1, 2, 3}));
+    std::uint64_t const ping_ref = c.send(protocol::ping{});
+    EXPECT_NE(spawn_ref, ping_ref);
+    auto const pong = c.await_reply(ping_ref, 10s);
+    ASSERT_TRUE(pong);
+    EXPECT_EQ(std::get<protocol::pong>(*pong).ref, ping_ref);
+    auto const ack = c.await_reply(spawn_ref, 10s);
+    ASSERT_TRUE(ack);
+    ASSERT_TRUE(std::holds_alternative<protocol::ack>(*ack));
+    EXPECT_TRUE(std::get<protocol::ack>(*ack).id);
+    // Each answer is handed out once.
+    EXPECT_EQ(c.await_reply(spawn_ref, 50ms), std::nullopt);
+}
+
+TEST(Connection, AnswersAreMatchedByRefNotByOrder)
+{
+    running_server s;
+    connection c(s.url());
+    // The spawn is refused at the next tick; the ping after it is answered at once.
+    std::uint64_t const refused = c.send(ball_at({0, 0, 50}));
+    std::uint64_t const ping = c.send(protocol::ping{});
+    auto const error = c.await_reply(refused, 10s);
+    ASSERT_TRUE(error);
+    EXPECT_EQ(std::get<protocol::error>(*error).code, protocol::error_code::outside_world);
+    EXPECT_TRUE(c.await_reply(ping, 10s));
+    EXPECT_EQ(c.stats().errors.at("outside_world"), 1U);
+}
+
+TEST(Connection, AnswersToSentTextAreUnmatched)
+{
+    running_server s;
+    connection c(s.url());
+    c.send_text("{not json");
+    auto const error = c.next_unmatched_reply(10s);
+    ASSERT_TRUE(error);
+    EXPECT_EQ(std::get<protocol::error>(*error).code, protocol::error_code::bad_json);
+    EXPECT_EQ(ref_of(*error), std::nullopt);
+    EXPECT_EQ(c.next_unmatched_reply(50ms), std::nullopt);
+}
+
+TEST(Connection, WaitForSnapshotFindsTheSpawnedBodyWithinTheTicks)
+{
+    running_server s;
+    connection c(s.url());
+    auto const ack = c.await_reply(c.send(ball_at({1, 1, 1})), 10s);
+    ASSERT_TRUE(ack);
+    std::uint64_t const id = *std::get<protocol::ack>(*ack).id;
+    auto const seen = c.wait_for_snapshot(
+        [id](protocol::snapshot const& snapshot) {
+            auto const& ids = snapshot.bodies.id;
+            return std::find(ids.begin(), ids.end(), id) != ids.end();
+        },
+        60, 10s);
+    ASSERT_EQ(seen.outcome, wait_outcome::matched);
+    EXPECT_GE(seen.snapshot->tick, std::get<protocol::ack>(*ack).tick);
+}
+
+TEST(Connection, WaitForSnapshotGivesUpAfterItsTicks)
+{
+    running_server s;
+    connection c(s.url());
+    ASSERT_NE(c.take_latest_snapshot(10s), nullptr);
+    std::uint64_t const start = c.latest_tick();
+    auto const never = c.wait_for_snapshot([](protocol::snapshot const&) { return false; }, 6, 10s);
+    EXPECT_EQ(never.outcome, wait_outcome::past_limit);
+    ASSERT_NE(never.snapshot, nullptr);
+    EXPECT_GT(never.snapshot->tick, start); // the last one looked at
+    EXPECT_GT(c.latest_tick(), start + 6);
+}
+
+TEST(Connection, ASlowSnapshotCallbackHoldsUpNeitherTheIoThreadNorTheAnswers)
+{
+    running_server s;
+    std::atomic<int> calls{0};
+    std::atomic<bool> on_caller_thread{false};
+    auto const caller = std::this_thread::get_id();
+    connection_options options;
+    options.on_snapshot = [&](std::shared_ptr<protocol::snapshot const> const&) {
+        on_caller_thread = on_caller_thread || std::this_thread::get_id() == caller;
+        ++calls;
+        std::this_thread::sleep_for(300ms); // far slower than the snapshots
+    };
+    connection c(s.url(), options);
+    while (calls == 0)
+        std::this_thread::sleep_for(10ms);
+    // While the callback sleeps, answers and snapshots still arrive.
+    EXPECT_TRUE(c.await_reply(c.send(protocol::ping{}), 10s));
+    std::uint64_t const counted = c.stats().snapshots;
+    while (c.stats().snapshots < counted + 15)
+        std::this_thread::sleep_for(10ms);
+    EXPECT_LT(calls.load(), 10); // it was handed the newest, not every one
+    EXPECT_FALSE(on_caller_thread);
+}
+
+TEST(Connection, AFullSnapshotQueueDropsTheOldest)
+{
+    running_server s;
+    connection_options options;
+    options.snapshot_queue = 2;
+    connection c(s.url(), options);
+    while (c.stats().snapshots < 8)
+        std::this_thread::sleep_for(10ms);
+    auto const first = c.next_snapshot(1s);
+    auto const second = c.next_snapshot(1s);
+    ASSERT_TRUE(first && second);
+    EXPECT_GT(second->tick, first->tick);
+    EXPECT_GE(c.stats().snapshots_dropped, 5U);
+    EXPECT_GE(first->tick, c.stats().first_tick + 10); // not the first snapshots: they went
+}
+
+TEST(Connection, CountsWhatItSawOnTheIoThread)
+{
+    running_server s;
+    connection c(s.url());
+    for (int i = 0; i < 3; ++i)
+        ASSERT_TRUE(c.await_reply(c.send(ball_at({static_cast<double>(i), 0, 0})), 10s));
+    while (c.stats().snapshots < 10)
+        std::this_thread::sleep_for(10ms);
+    connection_stats const stats = c.stats();
+    EXPECT_EQ(stats.commands_sent, 3U);
+    EXPECT_EQ(stats.acks, 3U);
+    EXPECT_EQ(stats.ack_latency.count(), 3U);
+    EXPECT_GT(stats.ack_latency.max(), 0.0);
+    EXPECT_EQ(stats.tick_gap_min, 2U); // 60 ticks/s, 30 snapshots/s
+    EXPECT_GE(stats.tick_gaps, 9U);
+    EXPECT_GT(stats.bytes_received, 0U);
+    EXPECT_GE(stats.messages_sent, 4U); // hello and the three spawns
+    EXPECT_EQ(stats.undecodable, 0U);
+}
+
+TEST(Connection, CloseIsCleanAndFinal)
+{
+    running_server s;
+    connection c(s.url());
+    c.close();
+    auto const closed = c.closed_with();
+    ASSERT_TRUE(closed);
+    EXPECT_EQ(closed->code, 1000);
+    EXPECT_FALSE(closed->by_server);
+    EXPECT_FALSE(c.is_open());
+    EXPECT_THROW(c.send(protocol::ping{}), connection_error);
+    c.close(); // again: nothing happens
+}
+
+TEST(Connection, ServerShutdownIsReportedAsGoingAway)
+{
+    running_server s;
+    connection c(s.url());
+    s.stop();
+    auto const closed = c.wait_closed(10s);
+    ASSERT_TRUE(closed);
+    EXPECT_EQ(closed->code, 1001);
+    EXPECT_TRUE(closed->by_server);
+}
+
+TEST(Connection, AnUnknownRoomIsRefusedWithTheStatus)
+{
+    running_server s;
+    try {
+        connection c(s.url("nowhere"));
+        FAIL() << "connected to a room that does not exist";
+    } catch (connection_error const& e) {
+        EXPECT_NE(std::string(e.what()).find("404"), std::string::npos) << e.what();
+    }
+}
+
+TEST(Connection, NoServerIsAConnectionError)
+{
+    std::string url;
+    {
+        running_server s; // a port that was just free, and is again
+        url = s.url();
+    }
+    connection_options options;
+    options.connect_timeout = 5s;
+    EXPECT_THROW(connection(url, options), connection_error);
+}
+
+} // namespace
+} // namespace kugel::client

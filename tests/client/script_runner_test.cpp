@@ -1,0 +1,155 @@
+// Scripts run in this process against a server in this process: how steps pass and fail.
+// The example scripts, and the kugel-client executable, are tested in kugel_client_test.cpp.
+
+#include "client/script_runner.hpp"
+#include "server.hpp"
+
+#include <filesystem>
+#include <gtest/gtest.h>
+#include <sstream>
+
+namespace kugel::client {
+namespace {
+
+using namespace std::chrono_literals;
+
+class running_server
+{
+public:
+    running_server() : server_(options()) { server_.start(); }
+    ~running_server()
+    {
+        server_.stop();
+        server_.wait();
+    }
+    std::string url() const
+    {
+        return "ws://127.0.0.1:" + std::to_string(server_.port()) + "/ws/still";
+    }
+
+private:
+    static server::server_options options()
+    {
+        server::server_options o;
+        o.port = 0;
+        o.threads = 2;
+        o.shutdown_grace = 200ms;
+        o.rooms = {{"still", std::filesystem::path(KUGEL_SOURCE_DIR) / "client" / "examples" /
+                                 "scenes" / "still.json"}};
+        return o;
+    }
+    server::server server_;
+};
+
+struct outcome
+{
+    run_result result;
+    std::string log;
+};
+
+outcome run(std::string const& url, std::string const& text)
+{
+    std::ostringstream log;
+    run_options options;
+    options.url = url;
+    options.timeout = 10s;
+    run_result result = run_script(parse_script(text), options, log);
+    return {std::move(result), log.str()};
+}
+
+TEST(ScriptRunner, KeptValuesAreUsedLater)
+{
+    running_server s;
+    outcome const o = run(s.url(), R"({"steps": [
+        {"send": {"type": "spawn", "body": {"position": [3, 0, 0], "radius": 0.5, "mass": 4}}},
+        {"expect": {"type": "ack", "keep": {"b": "id", "t": "tick"}}},
+        {"wait_until_tick": "$t"},
+        {"expect_body": {"id": "$b", "position": [3, 0, 0], "tolerance": 0, "keep": {"x": "/position/0"}}},
+        {"send": {"type": "remove", "id": "$b"}},
+        {"expect": {"type": "ack", "fields": {"ref": 2}}},
+        {"wait_for_body": {"id": "$b", "exists": false, "max_ticks": 30}},
+        {"send": {"type": "spawn", "body": {"position": ["= $x - 1", 0, 0], "radius": 0.5, "mass": 4}}},
+        {"expect": {"type": "ack", "fields": {"/id": "= $b + 1"}}}
+    ]})");
+    EXPECT_TRUE(o.result.passed) << o.log;
+    EXPECT_EQ(o.result.failed_step, 0U);
+    EXPECT_NE(o.log.find("passed: 9 steps"), std::string::npos) << o.log;
+}
+
+TEST(ScriptRunner, AFailureNamesTheStepWhatWasExpectedAndWhatArrived)
+{
+    running_server s;
+    outcome const o = run(s.url(), R"({"steps": [
+        {"send": {"type": "spawn", "body": {"position": [0, 0, 0], "radius": 0.5, "mass": 2}}},
+        {"expect": {"type": "ack", "keep": {"b": "id"}}},
+        {"send": {"type": "impulse", "id": "$b", "impulse": [1, 0, 0]}},
+        {"expect": {"type": "ack"}},
+        {"name": "too fast", "wait_for_body": {"id": "$b", "velocity": [1, 0, 0], "tolerance": 0.1, "max_ticks": 10}},
+        {"name": "never reached", "wait_ticks": 1}
+    ]})");
+    EXPECT_FALSE(o.result.passed);
+    EXPECT_EQ(o.result.failed_step, 5U);
+    auto const& f = o.result.failure;
+    EXPECT_NE(f.find("FAIL step 5 \"too fast\" (wait_for_body, client main)"), std::string::npos)
+        << f;
+    EXPECT_NE(f.find("expected: body 1, velocity [1.0, 0.0, 0.0] ± 0.1 within 10 ticks"),
+              std::string::npos)
+        << f;
+    EXPECT_NE(f.find("velocity [0.5, 0.0, 0.0]"), std::string::npos) << f;
+    EXPECT_EQ(o.log.find("never reached"), std::string::npos) << "ran past the failure:\n" << o.log;
+}
+
+TEST(ScriptRunner, AWrongAnswerIsShownWhole)
+{
+    running_server s;
+    outcome const o = run(s.url(), R"({"steps": [
+        {"send": {"type": "remove", "id": 12345}},
+        {"expect": {"type": "ack"}}
+    ]})");
+    EXPECT_EQ(o.result.failed_step, 2U);
+    EXPECT_NE(o.result.failure.find("expected: ack"), std::string::npos) << o.result.failure;
+    EXPECT_NE(o.result.failure.find(R"("code":"unknown_body")"), std::string::npos)
+        << o.result.failure;
+}
+
+TEST(ScriptRunner, AMessageTheProtocolRefusesIsNotSent)
+{
+    running_server s;
+    outcome const o = run(s.url(), R"({"steps": [
+        {"send": {"type": "spawn", "body": {"position": [0, 0, 0], "radius": -1, "mass": 1}}}
+    ]})");
+    EXPECT_EQ(o.result.failed_step, 1U);
+    EXPECT_NE(o.result.failure.find("bad_value: /body/radius"), std::string::npos)
+        << o.result.failure;
+}
+
+TEST(ScriptRunner, AnUnsetVariableFailsItsStep)
+{
+    running_server s;
+    outcome const o = run(s.url(), R"({"steps": [
+        {"send": {"type": "remove", "id": "$nobody"}}
+    ]})");
+    EXPECT_EQ(o.result.failed_step, 1U);
+    EXPECT_NE(o.result.failure.find("$nobody is not set"), std::string::npos) << o.result.failure;
+}
+
+TEST(ScriptRunner, NoServerFailsTheFirstStepThatConnects)
+{
+    std::string url;
+    {
+        running_server s;
+        url = s.url();
+    }
+    run_options options;
+    options.url = url;
+    options.timeout = 5s;
+    std::ostringstream log;
+    run_result const result =
+        run_script(parse_script(R"({"steps": [{"wait_ticks": 1}]})"), options, log);
+    EXPECT_EQ(result.failed_step, 1U);
+    EXPECT_NE(result.failure.find("connection: cannot connect"), std::string::npos)
+        << result.failure;
+}
+
+} // namespace
+} // namespace kugel::client
