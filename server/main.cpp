@@ -135,6 +135,15 @@ int main(int argc, char** argv)
         ->check(CLI::ExistingDirectory);
     app.add_option("--max-bodies", options.max_bodies, "Bodies per room before spawns are refused")
         ->capture_default_str();
+    app.add_option("--commands-per-second", options.client.commands_per_second,
+                   "Commands a client may send per second (a burst of one second's worth);\n"
+                   "more are answered with rate_limited")
+        ->check(CLI::Range(0.1, 1e6))
+        ->capture_default_str();
+    app.add_option("--max-message-bytes", options.client.max_message_bytes,
+                   "Largest inbound WebSocket frame; a larger one closes the connection (1009)")
+        ->check(CLI::Range(std::size_t{256}, std::size_t{64} << 20))
+        ->capture_default_str();
     app.add_option("--threads", options.threads, "Network and room threads (0: one per core)")
         ->capture_default_str();
     CLI11_PARSE(app, argc, argv);
@@ -153,6 +162,7 @@ int main(int argc, char** argv)
             return 2;
         }
         options.web_root = web_root;
+        options.client.command_burst = options.client.commands_per_second;
         return serve(options);
     }
     if (scene_file.empty()) {

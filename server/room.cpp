@@ -5,6 +5,7 @@
 #include "physics/obb.hpp"
 #include "protocol/codec.hpp"
 
+#include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
 #include <algorithm>
@@ -60,10 +61,7 @@ void refuse(websocket_session& to, std::uint64_t ref, error_code code, std::stri
     to.send_reply(share(protocol::encode(protocol::error{ref, code, std::move(message)})));
 }
 
-std::string describe(protocol::vec3 const& v)
-{
-    return "[" + std::to_string(v[0]) + ", " + std::to_string(v[1]) + ", " + std::to_string(v[2]) + "]";
-}
+std::string describe(protocol::vec3 const& v) { return fmt::format("[{}, {}, {}]", v[0], v[1], v[2]); }
 
 } // namespace
 
@@ -176,21 +174,20 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from)
         double const height = p.normal.dot(x) - p.offset; // m above the wall
         if (height < 0.0)
             return refuse_spawn(error_code::outside_world,
-                          "/body/position: " + describe(body.position) + " is behind wall " +
-                              std::to_string(k) + " (by " + std::to_string(-height) + " m)");
+                          fmt::format("/body/position: {} is behind wall {} (by {} m)",
+                                      describe(body.position), k, -height));
         if (height < body.radius)
             return refuse_spawn(error_code::overlaps_wall,
-                          "/body/position: a sphere of radius " + std::to_string(body.radius) +
-                              " m at " + describe(body.position) + " crosses wall " +
-                              std::to_string(k));
+                          fmt::format("/body/position: a sphere of radius {} m at {} crosses wall {}",
+                                      body.radius, describe(body.position), k));
     }
     if (body.radius > 0.0) {
         for (std::size_t k = 0; k < world_.obstacles().size(); ++k)
             if (physics::sphere_vs_obb(x, body.radius, world_.obstacles()[k].box).touching)
                 return refuse_spawn(error_code::overlaps_wall,
-                              "/body/position: a sphere of radius " + std::to_string(body.radius) +
-                                  " m at " + describe(body.position) + " overlaps obstacle " +
-                                  std::to_string(k));
+                              fmt::format("/body/position: a sphere of radius {} m at {} "
+                                          "overlaps obstacle {}",
+                                          body.radius, describe(body.position), k));
     }
     physics::body_desc desc;
     desc.position = x;
@@ -199,9 +196,9 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from)
     desc.charge = body.charge;
     desc.mass = body.mass ? *body.mass : physics::mass_from_density(*body.density, body.radius);
     if (!(desc.mass > 0.0) || !std::isfinite(1.0 / desc.mass))
-        return refuse_spawn(error_code::bad_value, "/body: the mass this gives, " +
-                                                 std::to_string(desc.mass) +
-                                                 " kg, is not a usable positive mass");
+        return refuse_spawn(error_code::bad_value,
+                            fmt::format("/body: the mass this gives, {} kg, is not a usable "
+                                        "positive mass", desc.mass));
     std::uint64_t id = 0;
     try {
         id = add_body(desc);

@@ -9,6 +9,7 @@
 #include "server.hpp"
 
 #include "protocol/message_schemas.hpp"
+#include "support/child_process.hpp"
 #include "support/ws_client.hpp"
 
 #include <boost/asio/connect.hpp>
@@ -16,16 +17,10 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
-#include <csignal>
-#include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <map>
 #include <thread>
-
-#include <spawn.h>
-#include <sys/wait.h>
-#include <unistd.h>
 
 namespace kugel::server {
 namespace {
@@ -514,94 +509,36 @@ TEST(Server, RoomOfTargetMapsWebSocketPaths)
 namespace kugel::server {
 namespace {
 
-/// kugel-server as a child process on a free port, its log read from a pipe.
-class server_process
+fs::path log_file(std::string const& name)
 {
-public:
-    explicit server_process(std::vector<std::string> args)
-    {
-        int fds[2];
-        if (pipe(fds) != 0)
-            throw std::runtime_error("pipe failed");
-        posix_spawn_file_actions_t actions;
-        posix_spawn_file_actions_init(&actions);
-        posix_spawn_file_actions_adddup2(&actions, fds[1], 2);
-        posix_spawn_file_actions_addclose(&actions, fds[0]);
-        args.insert(args.begin(), KUGEL_SERVER_EXE);
-        std::vector<char*> argv;
-        for (std::string& a : args)
-            argv.push_back(a.data());
-        argv.push_back(nullptr);
-        int const spawned = posix_spawn(&pid_, KUGEL_SERVER_EXE, &actions, nullptr, argv.data(), environ);
-        posix_spawn_file_actions_destroy(&actions);
-        close(fds[1]);
-        if (spawned != 0)
-            throw std::runtime_error("cannot start kugel-server");
-        log_ = fdopen(fds[0], "r");
-    }
-    ~server_process()
-    {
-        if (pid_ > 0 && !exited_) {
-            kill(pid_, SIGKILL);
-            waitpid(pid_, nullptr, 0);
-        }
-        if (log_)
-            fclose(log_);
-    }
-
-    /// Reads the log until a line contains `needle`; returns that line ("" at end of log).
-    std::string wait_for_log(std::string const& needle)
-    {
-        char line[4096];
-        while (fgets(line, sizeof line, log_)) {
-            if (std::string(line).find(needle) != std::string::npos)
-                return line;
-        }
-        return "";
-    }
-
-    void signal(int number) { kill(pid_, number); }
-
-    /// The exit status, once the process ended by itself (-1 for a crash).
-    int wait()
-    {
-        int status = 0;
-        waitpid(pid_, &status, 0);
-        exited_ = true;
-        return WIFEXITED(status) ? WEXITSTATUS(status) : -1;
-    }
-
-private:
-    pid_t pid_ = -1;
-    FILE* log_ = nullptr;
-    bool exited_ = false;
-};
+    return fs::path(testing::TempDir()) / ("kugel_server_test_" + name + ".log");
+}
 
 TEST(ServerProcess, SigtermClosesEveryClientWithGoingAwayAndExitsZero)
 {
-    server_process p({"--port", "0", "--room", "still=" + write_scene("process", still_scene()).string()});
-    std::string const line = p.wait_for_log("serving on http://127.0.0.1:");
-    ASSERT_FALSE(line.empty()) << "the server did not start";
-    auto const port_at = line.find("127.0.0.1:") + 10;
-    auto const port = static_cast<std::uint16_t>(std::stoul(line.substr(port_at)));
-    client c(port, "/ws/still");
+    test_support::server_child p(KUGEL_SERVER_EXE,
+                                 {"--room", "still=" + write_scene("process", still_scene()).string()},
+                                 log_file("process"));
+    client c(p.port(), "/ws/still");
     c.next("welcome");
     c.next("snapshot");
-    p.signal(SIGTERM);
+    auto const status = p.stop(); // SIGTERM
     while (c.raw().read(std::chrono::seconds(10))) {
     }
     ASSERT_TRUE(c.raw().closed());
     EXPECT_EQ(c.raw().close_code(), 1001);
-    EXPECT_EQ(p.wait(), 0);
+    EXPECT_EQ(status, 0) << p.log();
 }
 
 TEST(ServerProcess, RefusesABadRoomSceneWithExitTwoAndTheReason)
 {
     json bad = still_scene();
     bad["dt"] = -1;
-    server_process p({"--port", "0", "--room", "bad=" + write_scene("bad", bad).string()});
-    EXPECT_NE(p.wait_for_log("/dt"), "");
-    EXPECT_EQ(p.wait(), 2);
+    test_support::child_process p(KUGEL_SERVER_EXE,
+                                  {"--port", "0", "--room", "bad=" + write_scene("bad", bad).string()},
+                                  log_file("bad"));
+    EXPECT_EQ(p.wait(std::chrono::seconds(30)), 2);
+    EXPECT_NE(p.output().find("/dt"), std::string::npos) << p.output();
 }
 
 } // namespace
