@@ -210,28 +210,32 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from)
 
 void room::apply(protocol::impulse const& impulse, websocket_session& from)
 {
-    auto const body = body_of_wire_id_.find(impulse.id);
-    if (body == body_of_wire_id_.end()) {
-        refuse(from, impulse.ref, error_code::unknown_body,
-               "/id: no body " + std::to_string(impulse.id) + " in this room");
+    auto const body = find_body(impulse.id, impulse.ref, from);
+    if (!body)
         return;
-    }
-    world_.apply_impulse(body->second, from_wire(impulse.impulse));
+    world_.apply_impulse(*body, from_wire(impulse.impulse));
     from.send_reply(share(protocol::encode(protocol::ack{impulse.ref, counters_.ticks + 1, {}})));
 }
 
 void room::apply(protocol::remove const& remove, websocket_session& from)
 {
-    auto const body = body_of_wire_id_.find(remove.id);
-    if (body == body_of_wire_id_.end()) {
-        refuse(from, remove.ref, error_code::unknown_body,
-               "/id: no body " + std::to_string(remove.id) + " in this room");
+    auto const body = find_body(remove.id, remove.ref, from);
+    if (!body)
         return;
-    }
-    world_.remove_body(body->second);
-    body_of_wire_id_.erase(body);
+    world_.remove_body(*body);
+    body_of_wire_id_.erase(remove.id);
     counters_.bodies = world_.bodies().size();
     from.send_reply(share(protocol::encode(protocol::ack{remove.ref, counters_.ticks + 1, {}})));
+}
+
+std::optional<physics::body_id> room::find_body(std::uint64_t wire_id, std::uint64_t ref,
+                                                websocket_session& from)
+{
+    auto const body = body_of_wire_id_.find(wire_id);
+    if (body != body_of_wire_id_.end())
+        return body->second;
+    refuse(from, ref, error_code::unknown_body, fmt::format("/id: no body {} in this room", wire_id));
+    return std::nullopt;
 }
 
 std::uint64_t room::add_body(physics::body_desc const& desc)

@@ -87,6 +87,9 @@ private:
     void schedule_next_tick();
 
     std::uint64_t add_body(physics::body_desc const& desc); ///< the new body's wire id
+    /// The body a command names, or nothing after answering it with unknown_body.
+    std::optional<physics::body_id> find_body(std::uint64_t wire_id, std::uint64_t ref,
+                                              websocket_session& from);
 
     std::string name_;
     settings settings_;
