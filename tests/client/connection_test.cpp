@@ -3,6 +3,7 @@
 
 #include "client/connection.hpp"
 #include "server.hpp"
+#include "support/in_process_server.hpp"
 
 #include <algorithm>
 #include <atomic>
@@ -22,36 +23,21 @@ fs::path example_scene(std::string const& name)
 }
 
 /// A server with the example scenes as rooms "still" and "fall".
-class running_server
+class running_server : public test_support::in_process_server
 {
 public:
     explicit running_server(server::server_options options = {})
-        : server_(prepared(std::move(options)))
+        : in_process_server(with_examples(std::move(options)))
     {
-        server_.start();
     }
-    ~running_server() { stop(); }
-
-    void stop()
-    {
-        server_.stop();
-        server_.wait();
-    }
-    std::string url(std::string const& room = "still") const
-    {
-        return "ws://127.0.0.1:" + std::to_string(server_.port()) + "/ws/" + room;
-    }
+    std::string url(std::string const& room = "still") const { return in_process_server::url(room); }
 
 private:
-    static server::server_options prepared(server::server_options o)
+    static server::server_options with_examples(server::server_options o)
     {
-        o.port = 0;
-        o.threads = 2;
-        o.shutdown_grace = 200ms;
         o.rooms = {{"still", example_scene("still")}, {"fall", example_scene("fall")}};
         return o;
     }
-    server::server server_;
 };
 
 protocol::spawn ball_at(protocol::vec3 position, double mass = 2.0)

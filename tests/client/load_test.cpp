@@ -3,6 +3,7 @@
 
 #include "client/load.hpp"
 #include "server.hpp"
+#include "support/in_process_server.hpp"
 
 #include <filesystem>
 #include <gtest/gtest.h>
@@ -11,21 +12,15 @@
 namespace kugel::client {
 namespace {
 
-using namespace std::chrono_literals;
-
 TEST(Load, EveryClientSeesSnapshotsAndGetsItsCommandsAnswered)
 {
     server::server_options o;
-    o.port = 0;
-    o.threads = 2;
-    o.shutdown_grace = 200ms;
     o.rooms = {{"still", std::filesystem::path(KUGEL_SOURCE_DIR) / "client" / "examples" /
                              "scenes" / "still.json"}};
-    server::server s(o);
-    s.start();
+    test_support::in_process_server s(o);
 
     load_options options;
-    options.url = "ws://127.0.0.1:" + std::to_string(s.port()) + "/ws/still";
+    options.url = s.url("still");
     options.clients = 3;
     options.duration = 2.0;
     options.commands_per_second = 10.0;
@@ -55,7 +50,6 @@ TEST(Load, EveryClientSeesSnapshotsAndGetsItsCommandsAnswered)
     EXPECT_NE(table.str().find(" total "), std::string::npos) << table.str();
 
     s.stop();
-    s.wait();
 }
 
 TEST(Load, RefusesCountsAndTimesOutOfBounds)

@@ -3,6 +3,7 @@
 
 #include "client/script_runner.hpp"
 #include "server.hpp"
+#include "support/in_process_server.hpp"
 
 #include <filesystem>
 #include <gtest/gtest.h>
@@ -13,32 +14,21 @@ namespace {
 
 using namespace std::chrono_literals;
 
-class running_server
+/// A server with the example scene "still" as room "still".
+class running_server : public test_support::in_process_server
 {
 public:
-    running_server() : server_(options()) { server_.start(); }
-    ~running_server()
-    {
-        server_.stop();
-        server_.wait();
-    }
-    std::string url() const
-    {
-        return "ws://127.0.0.1:" + std::to_string(server_.port()) + "/ws/still";
-    }
+    running_server() : in_process_server(options()) {}
+    std::string url() const { return in_process_server::url("still"); }
 
 private:
     static server::server_options options()
     {
         server::server_options o;
-        o.port = 0;
-        o.threads = 2;
-        o.shutdown_grace = 200ms;
         o.rooms = {{"still", std::filesystem::path(KUGEL_SOURCE_DIR) / "client" / "examples" /
                                  "scenes" / "still.json"}};
         return o;
     }
-    server::server server_;
 };
 
 struct outcome

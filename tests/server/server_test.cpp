@@ -10,6 +10,7 @@
 
 #include "protocol/message_schemas.hpp"
 #include "support/child_process.hpp"
+#include "support/in_process_server.hpp"
 #include "support/ws_client.hpp"
 
 #include <boost/asio/connect.hpp>
@@ -98,36 +99,7 @@ json still_scene()
             {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
 }
 
-class running_server
-{
-public:
-    explicit running_server(server_options options) : server_(with_defaults(std::move(options)))
-    {
-        server_.start();
-    }
-    ~running_server()
-    {
-        server_.stop();
-        server_.wait();
-    }
-
-    std::uint16_t port() const { return server_.port(); }
-    server& get() { return server_; }
-    std::uint64_t ticks(std::string_view room_name)
-    {
-        return server_.find_room(room_name)->counters().ticks.load();
-    }
-
-private:
-    static server_options with_defaults(server_options o)
-    {
-        o.port = 0;
-        o.threads = 2;
-        o.shutdown_grace = std::chrono::milliseconds(200);
-        return o;
-    }
-    server server_;
-};
+using running_server = test_support::in_process_server;
 
 server_options rooms(std::initializer_list<std::pair<std::string, json>> scenes)
 {
