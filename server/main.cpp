@@ -135,10 +135,12 @@ int main(int argc, char** argv)
         ->check(CLI::ExistingDirectory);
     app.add_option("--max-bodies", options.max_bodies, "Bodies per room before spawns are refused")
         ->capture_default_str();
-    app.add_option("--commands-per-second", options.client.commands_per_second,
+    // Whole commands: welcome.limits announces the rate as an integer.
+    std::uint64_t commands_per_second = 200;
+    app.add_option("--commands-per-second", commands_per_second,
                    "Commands a client may send per second (a burst of one second's worth);\n"
                    "more are answered with rate_limited")
-        ->check(CLI::Range(0.1, 1e6))
+        ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1'000'000}))
         ->capture_default_str();
     app.add_option("--max-message-bytes", options.client.max_message_bytes,
                    "Largest inbound WebSocket frame; a larger one closes the connection (1009)")
@@ -162,6 +164,7 @@ int main(int argc, char** argv)
             return 2;
         }
         options.web_root = web_root;
+        options.client.commands_per_second = static_cast<double>(commands_per_second);
         options.client.command_burst = options.client.commands_per_second;
         return serve(options);
     }
