@@ -31,11 +31,38 @@ void sphere_boxes(std::span<vec3 const> x, std::span<double const> radius, colli
     }
 }
 
+/// True when a sphere of radius r at x is clear of every wall (n·x >= offset + r for all):
+/// the common case, tested without a branch per wall.
+bool clear_of_walls(std::span<wall const> walls, vec3 const& x, double r)
+{
+    bool clear = true;
+    for (wall const& w : walls)
+        clear &= w.surface.normal.dot(x) >= w.surface.offset + r;
+    return clear;
+}
+
+/// True when a sphere of radius r at x is farther than `reach` from every wall (n·x > offset
+/// + reach for all).
+bool beyond_walls(std::span<wall const> walls, vec3 const& x, double reach)
+{
+    bool beyond = true;
+    for (wall const& w : walls)
+        beyond &= w.surface.normal.dot(x) > w.surface.offset + reach;
+    return beyond;
+}
+
+/// Lists sphere i among those the discrete response moved (once).
+void note_moved(collision_workspace& ws, std::uint32_t i)
+{
+    if (std::exchange(ws.was_moved[i], std::uint8_t{1}) == 0)
+        ws.moved.push_back(i);
+}
+
 /// Pushes sphere i out of every wall it is inside and removes its velocity into that wall.
 void clamp_body_to_walls(std::span<wall const> walls, collision_bodies const& b, std::size_t i)
 {
     double const r = b.radius[i];
-    if (r <= 0.0 || b.inverse_mass[i] == 0.0)
+    if (r <= 0.0 || b.inverse_mass[i] == 0.0 || clear_of_walls(walls, b.x[i], r))
         return;
     for (wall const& w : walls) {
         vec3 const& n = w.surface.normal;
@@ -54,11 +81,11 @@ void clamp_body_to_walls(std::span<wall const> walls, collision_bodies const& b,
 /// there, and finishes the step on its new path. Up to four walls per step (a corner).
 void resolve_walls_discrete(collision_settings const& settings, std::span<wall const> walls,
                             collision_bodies const& b, double h, std::span<vec3 const> free_a,
-                            collision_stats& stats)
+                            collision_workspace& ws, collision_stats& stats)
 {
-    for (std::size_t i = 0; i < b.x.size(); ++i) {
+    for (std::uint32_t i = 0; i < b.x.size(); ++i) {
         double const r = b.radius[i];
-        if (r <= 0.0 || b.inverse_mass[i] == 0.0)
+        if (r <= 0.0 || b.inverse_mass[i] == 0.0 || clear_of_walls(walls, b.x[i], r))
             continue;
         body_path path{b.x0[i], b.v0[i], free_a[i], 0.0};
         vec3 end = b.x[i];
@@ -88,6 +115,7 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
         if (bounced) {
             b.x[i] = end;
             b.v[i] = path.velocity_at(h);
+            note_moved(ws, i);
         }
     }
 }
@@ -96,11 +124,12 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
 /// bounces by the wall rule.
 void resolve_obstacles_discrete(collision_settings const& settings, std::span<wall const> walls,
                                 std::span<obstacle const> obstacles, collision_bodies const& b,
-                                double h, std::span<vec3 const> free_a, collision_stats& stats)
+                                double h, std::span<vec3 const> free_a, collision_workspace& ws,
+                                collision_stats& stats)
 {
     for (obstacle const& o : obstacles) {
         aabb const bounds = aabb_of(o.box);
-        for (std::size_t i = 0; i < b.x.size(); ++i) {
+        for (std::uint32_t i = 0; i < b.x.size(); ++i) {
             double const r = b.radius[i];
             if (r <= 0.0 || b.inverse_mass[i] == 0.0 || !overlaps(bounds, aabb_of_sphere(b.x[i], r)))
                 continue;
@@ -114,6 +143,7 @@ void resolve_obstacles_discrete(collision_settings const& settings, std::span<wa
             b.x[i] = path.x;
             b.v[i] = path.v;
             clamp_body_to_walls(walls, b, i);
+            note_moved(ws, i);
         }
     }
 }
@@ -123,10 +153,13 @@ void resolve_obstacles_discrete(collision_settings const& settings, std::span<wa
 void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies const& b, std::size_t i)
 {
     double const r = b.radius[i];
+    double const reach = r * (1.0 + 1e-9);
+    if (beyond_walls(walls, b.x[i], reach))
+        return;
     for (wall const& w : walls) {
         vec3 const& n = w.surface.normal;
         double const vn = b.v[i].dot(n);
-        if (vn < 0.0 && n.dot(b.x[i]) <= w.surface.offset + r * (1.0 + 1e-9))
+        if (vn < 0.0 && n.dot(b.x[i]) <= w.surface.offset + reach)
             b.v[i] -= vn * n;
     }
 }
@@ -210,8 +243,10 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
                 if (std::exchange(ws.mark[k], stamp) != stamp)
                     touched.push_back(k);
         }
-        for (std::uint32_t k : touched)
+        for (std::uint32_t k : touched) {
             clamp_body_to_walls(walls, b, k);
+            note_moved(ws, k);
+        }
     }
 }
 
@@ -236,8 +271,10 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     free_a.resize(bodies.x.size());
     for (std::size_t i = 0; i < bodies.x.size(); ++i)
         free_a[i] = (bodies.v[i] - bodies.v0[i]) / h;
-    resolve_walls_discrete(settings, walls, bodies, h, free_a, stats);
-    resolve_obstacles_discrete(settings, walls, obstacles, bodies, h, free_a, stats);
+    workspace.moved.clear();
+    workspace.was_moved.assign(bodies.x.size(), 0);
+    resolve_walls_discrete(settings, walls, bodies, h, free_a, workspace, stats);
+    resolve_obstacles_discrete(settings, walls, obstacles, bodies, h, free_a, workspace, stats);
     resolve_pairs_discrete(settings, walls, bodies, h, free_a, workspace, stats);
 }
 
@@ -245,15 +282,20 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats)
 {
-    // Neither mode leaves a sphere inside a wall: both clamp every sphere at the end. (Discrete
-    // mode also clamps inside its position passes. Clamping a bounced sphere before the pair
-    // passes instead of after them, to save this loop, left stacks settling four times worse.)
-    if (settings.mode == collision_mode::discrete)
+    // Neither mode leaves a sphere inside a wall: both clamp at the end. Continuous mode clamps
+    // every sphere. Discrete mode clamps the spheres its response moved (it also clamps inside
+    // its position passes); every other sphere was clear of every wall when the wall pass
+    // looked at it and has not moved since, so clamping it would change nothing. (Clamping a
+    // bounced sphere before the pair passes instead of after them left stacks settling four
+    // times worse.)
+    if (settings.mode == collision_mode::discrete) {
         resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats);
-    else if (settings.mode == collision_mode::continuous)
+        for (std::uint32_t i : workspace.moved)
+            clamp_body_to_walls(walls, bodies, i);
+    } else if (settings.mode == collision_mode::continuous) {
         resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats);
-    if (settings.mode != collision_mode::off)
         clamp_to_walls(walls, bodies);
+    }
 }
 
 void clamp_to_walls(std::span<wall const> walls, collision_bodies const& b)

@@ -92,6 +92,8 @@ public:
     std::vector<box_pair> contacts;     ///< discrete mode: touching pairs, by body slot
     std::vector<std::uint32_t> touched; ///< discrete mode: the spheres a pass changed
     std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
+    std::vector<std::uint32_t> moved;   ///< discrete mode: the spheres this step's response moved
+    std::vector<std::uint8_t> was_moved; ///< discrete mode: 1 for the spheres in `moved`
     std::vector<body_path> paths;       ///< continuous mode: each body's path in this step
     std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
     std::vector<std::uint32_t> version; ///< continuous mode: bumped when a path changes
