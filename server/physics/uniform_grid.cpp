@@ -87,13 +87,17 @@ void uniform_grid_pairs(std::span<aabb const> boxes, std::vector<box_pair>& out,
     if (n < 2)
         return;
 
-    // 1. Cell size.
-    double largest_extent = 0.0;     // m
-    double largest_coordinate = 0.0; // m, of the lower corners
+    // 1. Cell size, and the extreme lower corners (for step 2), in one pass.
+    double largest_extent = 0.0; // m
+    vec3 lowest_corner = boxes[0].min;
+    vec3 highest_corner = boxes[0].min;
     for (aabb const& box : boxes) {
         largest_extent = std::max(largest_extent, box.extent().maxCoeff());
-        largest_coordinate = std::max(largest_coordinate, box.min.cwiseAbs().maxCoeff());
+        lowest_corner = lowest_corner.cwiseMin(box.min);
+        highest_corner = highest_corner.cwiseMax(box.min);
     }
+    double const largest_coordinate = // m, of the lower corners
+        std::max(lowest_corner.cwiseAbs().maxCoeff(), highest_corner.cwiseAbs().maxCoeff());
     double const reach = largest_coordinate / largest_extent;
     if (!(largest_extent > 0.0) || !(reach <= largest_cell_coordinate)) {
         sweep_and_prune_pairs(boxes, out, workspace);
@@ -105,12 +109,6 @@ void uniform_grid_pairs(std::span<aabb const> boxes, std::vector<box_pair>& out,
     // 2. The cells in use, padded by one on every side so that a neighbour's key never
     //    wraps into another row and every neighbour of an occupied cell has a key. floor(x/h)
     //    is monotone in x, so the extreme cells are those of the extreme lower corners.
-    vec3 lowest_corner = boxes[0].min;
-    vec3 highest_corner = boxes[0].min;
-    for (aabb const& box : boxes) {
-        lowest_corner = lowest_corner.cwiseMin(box.min);
-        highest_corner = highest_corner.cwiseMax(box.min);
-    }
     cell_coordinates const lowest = cell_of(lowest_corner, cell_size);
     cell_coordinates const highest = cell_of(highest_corner, cell_size);
     std::array<std::uint64_t, 3> padded_size;
