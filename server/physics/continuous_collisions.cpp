@@ -83,8 +83,11 @@ std::optional<double> advance_to_contact(double limit, double tolerance, Gap gap
 /// The swept boxes of this step's paths, for finding who a changed path may meet. Each box
 /// at the start of the step is filed under the grid cell of its centre (cells at least as
 /// large as the box, so a query looks one cell further); a box larger than a cell, and every
-/// path that changes during the step, goes to a short list that queries scan. Nothing is
-/// removed, so a query sees a superset of the current paths, which the caller checks exactly.
+/// path that changes during the step, goes to a short list that queries scan, one entry per
+/// body: a body's new path replaces its old entry there (a body changing its path at every
+/// event must not grow the list, or a step of many events costs their square). Nothing is
+/// removed from the cells, so a query sees a superset of the current paths, which the caller
+/// checks exactly.
 class path_grid
 {
 public:
@@ -92,6 +95,7 @@ public:
     {
         entries_.clear();
         listed_.clear();
+        listed_at_.assign(bodies, not_listed);
         seen_.assign(bodies, 0);
         stamp_ = 0;
         double extent = 0.0;
@@ -100,14 +104,23 @@ public:
         cell_ = boxes.empty() ? 1.0 : std::max(2.0 * extent / static_cast<double>(boxes.size()), 1e-12);
         for (std::size_t k = 0; k < boxes.size(); ++k) {
             if (boxes[k].extent().maxCoeff() > cell_)
-                listed_.push_back({members[k], boxes[k]});
+                insert(members[k], boxes[k]);
             else
                 entries_.push_back({key(cell_of(boxes[k].centre())), members[k]});
         }
         std::sort(entries_.begin(), entries_.end());
     }
 
-    void insert(std::uint32_t body, aabb const& box) { listed_.push_back({body, box}); }
+    /// Files `box` as body's current box in the list, replacing the one it had there.
+    void insert(std::uint32_t body, aabb const& box)
+    {
+        if (listed_at_[body] == not_listed) {
+            listed_at_[body] = static_cast<std::uint32_t>(listed_.size());
+            listed_.push_back({body, box});
+        } else {
+            listed_[listed_at_[body]].second = box;
+        }
+    }
 
     /// Calls f(j) once for every body that may have had a box overlapping `box`.
     template <class F>
@@ -166,7 +179,9 @@ private:
 
     double cell_ = 1.0;
     std::vector<entry> entries_;
+    static constexpr std::uint32_t not_listed = 0xffffffffU;
     std::vector<std::pair<std::uint32_t, aabb>> listed_;
+    std::vector<std::uint32_t> listed_at_; ///< per body: its place in listed_, or not_listed
     std::vector<std::uint32_t> seen_;
     std::uint32_t stamp_ = 0;
 };
