@@ -19,3 +19,9 @@ if(KUGEL_TSAN)
   target_compile_options(kugel_options INTERFACE -fsanitize=thread -fno-omit-frame-pointer -Wno-tsan)
   target_link_options(kugel_options INTERFACE -fsanitize=thread)
 endif()
+if(KUGEL_FUZZ)
+  # Coverage for libFuzzer in every library; the fuzz executables add -fsanitize=fuzzer.
+  target_compile_options(kugel_options INTERFACE
+    -fsanitize=fuzzer-no-link,address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)
+  target_link_options(kugel_options INTERFACE -fsanitize=address,undefined)
+endif()
