@@ -308,6 +308,14 @@ void check_together(body_spec const& body, location const& at)
         at.fail(error_code::bad_value, "give either mass or density, not both");
     if (!body.mass && !body.density)
         at.fail(error_code::missing_field, "needs a mass (kg) or a density (kg/m^3)");
+    double const speed = std::hypot(body.velocity[0], body.velocity[1], body.velocity[2]);
+    if (!(speed < speed_of_light))
+        (at / "velocity")
+            .fail(error_code::bad_value, "a speed " +
+                                             (std::isfinite(speed) ? "of " + format(speed) + " m/s"
+                                                                   : std::string("beyond the range of a double")) +
+                                             " is not below the speed of light, " +
+                                             format(speed_of_light) + " m/s");
     if (body.density && !(body.radius > 0.0))
         (at / "density")
             .fail(error_code::bad_value, "needs a radius > 0 (a point mass has no volume; give "

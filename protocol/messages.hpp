@@ -23,6 +23,11 @@ inline constexpr int protocol_version = 1;
 /// client ids and ticks never exceed it.
 inline constexpr std::uint64_t max_safe_integer = (std::uint64_t{1} << 53) - 1;
 
+/// m/s. No body may move this fast or faster: a spawn's velocity and the velocity an impulse
+/// gives must be slower. A speed limit far above any scene's keeps every position finite
+/// (a speed near the largest double would overflow a position within a few ticks).
+inline constexpr double speed_of_light = 299'792'458.0;
+
 using vec3 = std::array<double, 3>;
 
 // Client -> server --------------------------------------------------------------------------
@@ -41,7 +46,7 @@ struct hello
 struct body_spec
 {
     vec3 position{};               ///< m
-    vec3 velocity{};               ///< m/s
+    vec3 velocity{};               ///< m/s, speed below speed_of_light
     double radius = 0.0;           ///< m, >= 0; 0 is a point mass, which never collides
     std::optional<double> mass;    ///< kg, > 0
     std::optional<double> density; ///< kg/m³, > 0; needs radius > 0; mass = density·4/3·π·r³

@@ -1,5 +1,7 @@
 #include "http_session.hpp"
 
+#include "metrics.hpp"
+
 #include <spdlog/spdlog.h>
 
 #include <chrono>
@@ -131,6 +133,13 @@ void http_session::on_read(beast::error_code ec, std::size_t)
     std::string_view const target = request.target();
     if (target == "/healthz")
         return send(text_response(request, http::status::ok, routes_->health(), "application/json"));
+    if (target == "/readyz") {
+        auto [ready, body] = routes_->ready();
+        return send(text_response(request, ready ? http::status::ok : http::status::service_unavailable,
+                                  std::move(body), "application/json"));
+    }
+    if (target == "/metrics")
+        return send(text_response(request, http::status::ok, routes_->metrics(), metrics_content_type));
 
     auto const file = routes_->web_root.empty() ? std::nullopt : file_for(routes_->web_root, target);
     if (!file)

@@ -6,6 +6,8 @@
 #include <functional>
 #include <memory>
 #include <optional>
+#include <string>
+#include <utility>
 
 namespace kugel::server {
 
@@ -19,10 +21,14 @@ struct http_routes
     std::function<std::shared_ptr<room>(std::string_view name)> find_room;
     std::function<void(tcp::socket&&, std::shared_ptr<room>, http::request<http::string_body>)>
         upgrade; ///< hands the socket to a new websocket_session
-    std::function<std::string()> health; ///< the body of /healthz (JSON)
+    std::function<std::string()> health;  ///< the body of /healthz (JSON): alive
+    std::function<std::string()> metrics; ///< the body of /metrics (Prometheus text)
+    /// /readyz: whether every room is ticking, and the body (JSON).
+    std::function<std::pair<bool, std::string>()> ready;
 };
 
-/// One HTTP connection: GET and HEAD of the page's static files, /healthz, and the upgrade
+/// One HTTP connection: GET and HEAD of the page's static files, /healthz, /readyz, /metrics,
+/// and the upgrade
 /// to WebSocket on /ws (the default room) or /ws/ROOM. Keep-alive, one request at a time.
 class http_session : public std::enable_shared_from_this<http_session>
 {

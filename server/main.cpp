@@ -64,7 +64,7 @@ int serve(kugel::server::server_options const& options)
         server::server s(options);
         s.stop_on_signals();
         s.start();
-        spdlog::info("serving on http://{}:{}/ (WebSocket /ws, /ws/ROOM; health /healthz){}",
+        spdlog::info("serving on http://{}:{}/ (WebSocket /ws, /ws/ROOM; probes /healthz, /readyz; /metrics){}",
                      options.host, s.port(),
                      options.web_root.empty() ? " without a web root"
                                               : ", page from " + options.web_root.string());

@@ -53,9 +53,11 @@ std::shared_ptr<std::string const> share(std::string text)
     return std::make_shared<std::string const>(std::move(text));
 }
 
-/// Answers a command that cannot apply with an error, and logs the refusal.
-void refuse(websocket_session& to, std::uint64_t ref, error_code code, std::string message)
+/// Answers a command that cannot apply with an error, and counts and logs the refusal.
+void refuse(traffic_counters& traffic, websocket_session& to, std::uint64_t ref, error_code code,
+            std::string message)
 {
+    traffic.count_rejected(code);
     spdlog::info("client {}: refused ref {}: {} ({})", to.client_id(), ref,
                  protocol::name(code), message);
     to.send_reply(share(protocol::encode(protocol::error{ref, code, std::move(message)})));
@@ -107,11 +109,12 @@ void room::stop()
 void room::join(std::shared_ptr<websocket_session> session)
 {
     net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
+        // Counted before the welcome goes out, so a client that has its welcome is counted.
+        self->sessions_.push_back({session->client_id(), session});
+        self->counters_.sessions = self->sessions_.size();
         protocol::welcome welcome = self->welcome_;
         welcome.client = session->client_id();
         session->send_reply(share(protocol::encode(welcome)));
-        self->sessions_.push_back({session->client_id(), session});
-        self->counters_.sessions = self->sessions_.size();
     });
 }
 
@@ -163,7 +166,7 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from)
 {
     protocol::body_spec const& body = spawn.body;
     auto const refuse_spawn = [&](error_code code, std::string message) {
-        refuse(from, spawn.ref, code, std::move(message));
+        refuse(traffic_, from, spawn.ref, code, std::move(message));
     };
     if (world_.bodies().size() >= settings_.max_bodies)
         return refuse_spawn(error_code::room_full, "the room holds its limit of " +
@@ -213,7 +216,18 @@ void room::apply(protocol::impulse const& impulse, websocket_session& from)
     auto const body = find_body(impulse.id, impulse.ref, from);
     if (!body)
         return;
-    world_.apply_impulse(*body, from_wire(impulse.impulse));
+    physics::vec3 const j = from_wire(impulse.impulse);
+    std::size_t const slot = *world_.bodies().slot_of(*body);
+    physics::vec3 const v =
+        world_.bodies().velocities()[slot] + world_.bodies().inverse_masses()[slot] * j;
+    // A finite impulse on a light body can give an infinite speed, and a merely huge one
+    // an infinite position some ticks later: both would reach every client as non-numbers.
+    if (!(v.norm() < protocol::speed_of_light))
+        return refuse(traffic_, from, impulse.ref, error_code::bad_value,
+                      fmt::format("/impulse: {} N·s would give body {} a speed of {} m/s, not "
+                                  "below the speed of light",
+                                  describe(impulse.impulse), impulse.id, v.norm()));
+    world_.apply_impulse(*body, j);
     from.send_reply(share(protocol::encode(protocol::ack{impulse.ref, counters_.ticks + 1, {}})));
 }
 
@@ -234,7 +248,7 @@ std::optional<physics::body_id> room::find_body(std::uint64_t wire_id, std::uint
     auto const body = body_of_wire_id_.find(wire_id);
     if (body != body_of_wire_id_.end())
         return body->second;
-    refuse(from, ref, error_code::unknown_body, fmt::format("/id: no body {} in this room", wire_id));
+    refuse(traffic_, from, ref, error_code::unknown_body, fmt::format("/id: no body {} in this room", wire_id));
     return std::nullopt;
 }
 
@@ -312,6 +326,7 @@ void room::broadcast(std::shared_ptr<std::string const> const& bytes)
 
 void room::record(clock::duration cost, std::size_t snapshot_bytes)
 {
+    tick_durations_.record(cost);
     ++report_ticks_;
     report_cost_ += cost;
     report_worst_ = std::max(report_worst_, cost);

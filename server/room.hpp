@@ -1,5 +1,6 @@
 #pragma once
 
+#include "metrics.hpp"
 #include "network.hpp"
 #include "options.hpp"
 
@@ -53,6 +54,10 @@ public:
 
     std::string const& name() const { return name_; }
     room_counters const& counters() const { return counters_; }
+    /// Counted by the room's sessions on their strands, read by /metrics from any thread.
+    traffic_counters& traffic() { return traffic_; }
+    traffic_counters const& traffic() const { return traffic_; }
+    tick_histogram const& tick_durations() const { return tick_durations_; }
 
     /// Starts ticking. The room keeps itself alive while it ticks.
     void start();
@@ -120,6 +125,8 @@ private:
     double snapshot_phase_ = 0.0; ///< snapshot_rate accumulated per tick, due at tick_rate
 
     room_counters counters_;
+    traffic_counters traffic_;
+    tick_histogram tick_durations_;
     // For the periodic log line.
     clock::time_point report_started_;
     std::uint64_t report_ticks_ = 0;

@@ -101,6 +101,27 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
                                      {"late_ticks", r->counters().late_ticks.load()}};
         return health.dump() + "\n";
     };
+    routes->metrics = [s] {
+        std::vector<std::shared_ptr<room const>> rooms;
+        for (auto const& [name, r] : s->rooms)
+            rooms.push_back(r);
+        return prometheus_metrics(rooms);
+    };
+    routes->ready = [s] {
+        // Every room's scene loaded when the server was made; a room is ready once it ticks.
+        bool all_ready = !s->stopping;
+        nlohmann::ordered_json rooms = nlohmann::ordered_json::object();
+        for (auto const& [name, r] : s->rooms) {
+            bool const ticking = r->counters().ticks.load() > 0;
+            all_ready = all_ready && ticking;
+            rooms[name] = {{"ready", ticking}};
+        }
+        nlohmann::ordered_json const body{
+            {"status", s->stopping ? "stopping" : all_ready ? "ready" : "starting"},
+            {"ready", all_ready},
+            {"rooms", rooms}};
+        return std::pair{all_ready, body.dump() + "\n"};
+    };
     auto const address = net::ip::make_address(options.host);
     state_->acceptor = std::make_shared<listener>(state_->io, tcp::endpoint{address, options.port},
                                                   std::move(routes));

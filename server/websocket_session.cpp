@@ -25,6 +25,24 @@ std::optional<std::uint64_t> ref_of(protocol::client_message const& message)
         message);
 }
 
+/// A client's text for a log line: at most 64 bytes, control characters (a newline that
+/// would start a fake log line) shown as '?'.
+std::string printable(std::string_view text)
+{
+    std::string out(text.substr(0, 64));
+    for (char& c : out)
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+            c = '?';
+    return text.size() > 64 ? out + "..." : out;
+}
+
+/// Whether the n-th refusal of one kind gets a log line: the first ten, then one per hundred,
+/// so that a client cannot flood the log by sending what is refused.
+bool worth_logging(std::uint64_t n)
+{
+    return n <= 10 || n % 100 == 0;
+}
+
 } // namespace
 
 websocket_session::websocket_session(tcp::socket&& socket, std::shared_ptr<room> joined,
@@ -81,11 +99,14 @@ void websocket_session::on_read(beast::error_code ec, std::size_t)
     if (ec == websocket::error::message_too_big) {
         spdlog::warn("client {} ({}): frame over {} bytes, closed with 1009", client_id_, peer_,
                      limits_.max_message_bytes);
+        bump(room_->traffic().messages_in);
+        room_->traffic().count_rejected(protocol::error_code::message_too_large);
         closing_ = true;
         return;
     }
     if (ec)
         return fail(ec, "websocket read");
+    bump(room_->traffic().messages_in);
     handle_message(beast::buffers_to_string(buffer_.data()));
     buffer_.consume(buffer_.size());
     do_read();
@@ -94,25 +115,30 @@ void websocket_session::on_read(beast::error_code ec, std::size_t)
 void websocket_session::handle_message(std::string_view text)
 {
     if (!ws_.got_text()) {
+        room_->traffic().count_rejected(protocol::error_code::bad_json);
         queue_reply(std::make_shared<std::string const>(protocol::encode(protocol::error{
-            std::nullopt, protocol::error_code::bad_json, "frames must be text (JSON), not binary"})));
+            std::nullopt, protocol::error_code::bad_json, "/: frames must be text (JSON), not binary"})));
         return;
     }
     auto decoded = protocol::decode(text);
     if (decoded.failure) {
-        spdlog::info("client {} ({}): refused a message: {} ({})", client_id_, peer_,
-                     protocol::name(decoded.failure->code), decoded.failure->message);
+        room_->traffic().count_rejected(decoded.failure->code);
+        if (worth_logging(++refused_))
+            spdlog::info("client {} ({}): refused message {}: {} ({})", client_id_, peer_,
+                         refused_, protocol::name(decoded.failure->code), decoded.failure->message);
         queue_reply(std::make_shared<std::string const>(protocol::encode(*decoded.failure)));
         return;
     }
     auto& message = *decoded.message;
     if (auto const* hello = std::get_if<protocol::hello>(&message)) {
-        if (hello->name)
-            spdlog::info("client {} ({}) is '{}'", client_id_, peer_, *hello->name);
+        if (hello->name && !named_) // a flood of hellos logs one line
+            spdlog::info("client {} ({}) is '{}'", client_id_, peer_, printable(*hello->name));
+        named_ = named_ || hello->name.has_value();
         return;
     }
     if (!take_command_token()) {
-        if (++rate_limited_ == 1 || rate_limited_ % 100 == 0) // a flood logs a line per 100
+        room_->traffic().count_rejected(protocol::error_code::rate_limited);
+        if (worth_logging(++rate_limited_))
             spdlog::info("client {} ({}): refused {} commands over the rate limit so far",
                          client_id_, peer_, rate_limited_);
         queue_reply(std::make_shared<std::string const>(protocol::encode(protocol::error{
@@ -176,6 +202,8 @@ void websocket_session::queue_snapshot(std::shared_ptr<std::string const> bytes)
         return;
     if (in_flight_ && clock::now() - write_started_ > limits_.write_stall)
         return drop_connection("not reading: a send has been pending too long");
+    if (latest_snapshot_)
+        bump(room_->traffic().snapshots_dropped);
     latest_snapshot_ = std::move(bytes); // a newer snapshot replaces an unsent one
     write_next();
 }
@@ -184,14 +212,20 @@ void websocket_session::write_next()
 {
     if (in_flight_ || closing_ || !accepted_)
         return;
+    traffic_counters& traffic = room_->traffic();
     if (!replies_.empty()) {
         in_flight_ = std::move(replies_.front());
         replies_.pop_front();
+        bump(traffic.replies_out);
     } else if (latest_snapshot_) {
         in_flight_ = std::move(latest_snapshot_);
+        bump(traffic.snapshots_out);
     } else {
         return;
     }
+    // Counted when handed to the socket, so a client that has read a message always finds
+    // it counted.
+    bump(traffic.bytes_out, in_flight_->size());
     write_started_ = clock::now();
     ws_.async_write(net::buffer(*in_flight_),
                     beast::bind_front_handler(&websocket_session::on_write, shared_from_this()));

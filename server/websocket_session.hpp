@@ -75,6 +75,8 @@ private:
     double tokens_;               ///< commands the client may send now (token bucket)
     clock::time_point refilled_; ///< when tokens_ was last topped up
     std::uint64_t rate_limited_ = 0; ///< commands refused for the rate, for the log
+    std::uint64_t refused_ = 0;      ///< messages that did not decode, for the log
+    bool named_ = false;             ///< a hello gave a name (logged once)
 };
 
 } // namespace kugel::server

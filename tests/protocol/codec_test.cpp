@@ -351,6 +351,16 @@ std::vector<bad_case> bad_client_messages()
             "density_of_a_point",
             R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "radius": 0, "density": 2}})",
             error_code::bad_value, "/body/density: needs a radius > 0", 1},
+        bad_case{
+            "faster_than_light",
+            R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "velocity": [2e8, 2e8, 2e8], "radius": 1, "mass": 1}})",
+            error_code::bad_value,
+            "/body/velocity: a speed of 346410161.51", 1,
+            false},
+        bad_case{
+            "speed_near_the_largest_double",
+            R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "velocity": [1.7e308, 1.7e308, 0], "radius": 1, "mass": 1}})",
+            error_code::bad_value, "/body/velocity: a speed beyond the range of a double is not below", 1, false},
         bad_case{"negative_ref", R"({"type": "ping", "ref": -1})", error_code::bad_value,
                  "/ref: must be a whole number from 0 to 9007199254740991, got -1"},
         bad_case{"ref_beyond_2_to_53", R"({"type": "ping", "ref": 9007199254740992})",

@@ -10,6 +10,7 @@
 
 #include "protocol/message_schemas.hpp"
 #include "support/child_process.hpp"
+#include "support/http_get.hpp"
 #include "support/in_process_server.hpp"
 #include "support/ws_client.hpp"
 
@@ -427,20 +428,8 @@ TEST(Server, StopClosesEveryClientWithGoingAway)
 /// One HTTP GET on a fresh connection: (status, body).
 std::pair<unsigned, std::string> http_get(std::uint16_t port, std::string const& target)
 {
-    namespace beast = boost::beast;
-    namespace http = beast::http;
-    boost::asio::io_context io;
-    boost::asio::ip::tcp::socket socket(io);
-    boost::asio::ip::tcp::resolver resolver(io);
-    boost::asio::connect(socket, resolver.resolve("127.0.0.1", std::to_string(port)));
-    http::request<http::empty_body> request{http::verb::get, target, 11};
-    request.set(http::field::host, "127.0.0.1");
-    request.keep_alive(false);
-    http::write(socket, request);
-    beast::flat_buffer buffer;
-    http::response<http::string_body> response;
-    http::read(socket, buffer, response);
-    return {response.result_int(), response.body()};
+    auto reply = test_support::http_get(port, target);
+    return {reply.status, std::move(reply.body)};
 }
 
 TEST(Server, ServesHealthAndTheWebRootAndNothingOutsideIt)

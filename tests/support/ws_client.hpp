@@ -35,6 +35,13 @@ public:
 
     void send(std::string const& text) { ws_.write(boost::asio::buffer(text)); }
     void send(nlohmann::json const& message) { send(message.dump()); }
+    /// A binary frame (the protocol speaks text only).
+    void send_binary(std::string const& bytes)
+    {
+        ws_.binary(true);
+        ws_.write(boost::asio::buffer(bytes));
+        ws_.text(true);
+    }
 
     /// The next message, or nullopt when none came within `timeout` or the connection
     /// ended (then closed() is true). A read still pending at the timeout stays pending

@@ -1,0 +1,180 @@
+#include "metrics.hpp"
+
+#include "room.hpp"
+
+#include <array>
+#include <charconv>
+#include <cmath>
+
+namespace kugel::server {
+
+namespace {
+
+std::string number_text(double x)
+{
+    if (std::isnan(x))
+        return "NaN";
+    if (std::isinf(x))
+        return x > 0 ? "+Inf" : "-Inf";
+    std::array<char, 32> buffer{};
+    auto const [end, ec] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), x,
+                                                std::chars_format::general); // 0.0001, not 1e-04
+    return std::string(buffer.data(), end);
+}
+
+/// A label value in the exposition format: backslash, double quote and newline escaped.
+void append_escaped(std::string& out, std::string_view value)
+{
+    for (char const c : value) {
+        if (c == '\\')
+            out += "\\\\";
+        else if (c == '"')
+            out += "\\\"";
+        else if (c == '\n')
+            out += "\\n";
+        else
+            out += c;
+    }
+}
+
+} // namespace
+
+void tick_histogram::record(std::chrono::steady_clock::duration cost)
+{
+    double const seconds = std::chrono::duration<double>(cost).count();
+    std::size_t bucket = 0;
+    while (bucket < upper_bounds.size() && seconds > upper_bounds[bucket])
+        ++bucket;
+    bump(counts_[bucket]);
+    bump(sum_ns_, static_cast<std::uint64_t>(
+                      std::chrono::duration_cast<std::chrono::nanoseconds>(cost).count()));
+}
+
+tick_histogram::reading tick_histogram::read() const
+{
+    reading r;
+    std::uint64_t total = 0;
+    for (std::size_t i = 0; i < counts_.size(); ++i) {
+        total += counts_[i].load(std::memory_order_relaxed);
+        r.cumulative[i] = total;
+    }
+    r.sum = static_cast<double>(sum_ns_.load(std::memory_order_relaxed)) * 1e-9;
+    return r;
+}
+
+void traffic_counters::count_rejected(protocol::error_code code)
+{
+    bump(rejected[static_cast<std::size_t>(code)]);
+}
+
+void metrics_text::begin(family const& f)
+{
+    out_ += "# HELP ";
+    out_ += f.name;
+    out_ += ' ';
+    out_ += f.help;
+    out_ += "\n# TYPE ";
+    out_ += f.name;
+    out_ += ' ';
+    out_ += f.type;
+    out_ += '\n';
+}
+
+void metrics_text::labels(std::initializer_list<std::pair<std::string_view, std::string_view>> labels)
+{
+    if (labels.size() == 0)
+        return;
+    out_ += '{';
+    bool first = true;
+    for (auto const& [name, value] : labels) {
+        if (!first)
+            out_ += ',';
+        first = false;
+        out_ += name;
+        out_ += "=\"";
+        append_escaped(out_, value);
+        out_ += '"';
+    }
+    out_ += '}';
+}
+
+void metrics_text::sample(std::string_view name,
+                          std::initializer_list<std::pair<std::string_view, std::string_view>> labels,
+                          double value)
+{
+    out_ += name;
+    this->labels(labels);
+    out_ += ' ';
+    out_ += number_text(value);
+    out_ += '\n';
+}
+
+void metrics_text::sample(std::string_view name,
+                          std::initializer_list<std::pair<std::string_view, std::string_view>> labels,
+                          std::uint64_t value)
+{
+    out_ += name;
+    this->labels(labels);
+    out_ += ' ';
+    out_ += std::to_string(value);
+    out_ += '\n';
+}
+
+std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& rooms)
+{
+    metrics_text m;
+    auto const load = [](std::atomic<std::uint64_t> const& counter) {
+        return counter.load(std::memory_order_relaxed);
+    };
+    // One family at a time, a series per room: the format wants a family's lines together.
+    auto const per_room = [&](metrics_text::family const& f, auto value_of) {
+        m.begin(f);
+        for (auto const& r : rooms)
+            m.sample(f.name, {{"room", r->name()}}, value_of(*r));
+    };
+
+    m.begin({"kugel_tick_duration_seconds", "histogram",
+             "Wall-clock time a room's tick took: commands, physics step, snapshot encoding."});
+    for (auto const& r : rooms) {
+        tick_histogram::reading const h = r->tick_durations().read();
+        for (std::size_t i = 0; i < tick_histogram::upper_bounds.size(); ++i)
+            m.sample("kugel_tick_duration_seconds_bucket",
+                     {{"room", r->name()}, {"le", number_text(tick_histogram::upper_bounds[i])}},
+                     h.cumulative[i]);
+        m.sample("kugel_tick_duration_seconds_bucket", {{"room", r->name()}, {"le", "+Inf"}}, h.count());
+        m.sample("kugel_tick_duration_seconds_sum", {{"room", r->name()}}, h.sum);
+        m.sample("kugel_tick_duration_seconds_count", {{"room", r->name()}}, h.count());
+    }
+    per_room({"kugel_ticks_total", "counter", "Ticks a room has completed."},
+             [&](room const& r) { return load(r.counters().ticks); });
+    per_room({"kugel_late_ticks_total", "counter",
+              "Ticks a room dropped because it fell more than 4 ticks behind its clock."},
+             [&](room const& r) { return load(r.counters().late_ticks); });
+    per_room({"kugel_clients", "gauge", "WebSocket clients in a room."},
+             [&](room const& r) { return load(r.counters().sessions); });
+    per_room({"kugel_bodies", "gauge", "Bodies in a room's world."},
+             [&](room const& r) { return load(r.counters().bodies); });
+    per_room({"kugel_messages_in_total", "counter", "WebSocket frames read from a room's clients."},
+             [&](room const& r) { return load(r.traffic().messages_in); });
+    m.begin({"kugel_messages_out_total", "counter",
+             "Messages handed to a room's client sockets: kind reply (welcome, ack, error, pong) or snapshot."});
+    for (auto const& r : rooms) {
+        m.sample("kugel_messages_out_total", {{"room", r->name()}, {"kind", "reply"}}, load(r->traffic().replies_out));
+        m.sample("kugel_messages_out_total", {{"room", r->name()}, {"kind", "snapshot"}},
+                 load(r->traffic().snapshots_out));
+    }
+    per_room({"kugel_bytes_out_total", "counter", "Payload bytes of the messages handed to a room's client sockets."},
+             [&](room const& r) { return load(r.traffic().bytes_out); });
+    per_room({"kugel_snapshots_dropped_total", "counter",
+              "Snapshots replaced before they were sent, because a client read slower than they came."},
+             [&](room const& r) { return load(r.traffic().snapshots_dropped); });
+    m.begin({"kugel_commands_rejected_total", "counter",
+             "Messages refused with an error, by error code (protocol/PROTOCOL.md)."});
+    for (auto const& r : rooms)
+        for (protocol::error_code const code : protocol::all_error_codes)
+            m.sample("kugel_commands_rejected_total", {{"room", r->name()}, {"code", protocol::name(code)}},
+                     load(r->traffic().rejected[static_cast<std::size_t>(code)]));
+    return m.text();
+}
+
+} // namespace kugel::server

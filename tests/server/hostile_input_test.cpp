@@ -1,0 +1,456 @@
+// Hostile input, one case per row: what a client sends over a real WebSocket and what the
+// server must answer (an error with its code, the JSON pointer and the ref; a close code; or
+// an ordinary answer where the input is odd but valid). For every row the test also checks
+// that the server stays up, that a second client in the same room keeps receiving snapshots,
+// and that a refused command changes nothing in the world. The room's scene has no forces,
+// so its snapshots are bit for bit the same from tick to tick unless a command changes
+// something: comparing them before and after a row compares the whole world.
+
+#include "room.hpp"
+#include "server.hpp"
+
+#include "protocol/message_schemas.hpp"
+#include "support/in_process_server.hpp"
+#include "support/ws_client.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <optional>
+#include <string>
+#include <variant>
+#include <vector>
+
+namespace kugel::server {
+namespace {
+
+using nlohmann::json;
+using test_support::ws_client;
+namespace fs = std::filesystem;
+
+protocol::testing::message_schemas const& schemas()
+{
+    static protocol::testing::message_schemas const instance;
+    return instance;
+}
+
+// What a row expects ----------------------------------------------------------------------
+
+struct refused_with
+{
+    std::string code;
+    std::string pointer;              ///< the error message starts with "POINTER: "
+    std::optional<std::uint64_t> ref; ///< echoed; nullopt: the error has no ref
+};
+struct closed_with
+{
+    std::uint16_t code;
+};
+struct answered_with ///< odd but valid input, answered as usual
+{
+    std::string type;
+    std::uint64_t ref;
+};
+struct no_answer ///< valid input that gets no answer (a good hello)
+{
+};
+struct rate_limited_after ///< the frame sent `repeat` times: this many answered, the rest refused
+{
+    int answered;
+};
+using expectation = std::variant<refused_with, closed_with, answered_with, no_answer, rate_limited_after>;
+
+struct hostile_case
+{
+    std::string name;
+    std::string frame;
+    expectation expected;
+    bool binary = false;
+    int repeat = 1;
+};
+
+refused_with refused(std::string code, std::string pointer, std::optional<std::uint64_t> ref = std::nullopt)
+{
+    return {std::move(code), std::move(pointer), ref};
+}
+
+std::string spawn(std::uint64_t ref, std::string const& body)
+{
+    return R"({"type":"spawn","ref":)" + std::to_string(ref) + R"(,"body":)" + body + "}";
+}
+
+std::string spawn_at(std::uint64_t ref, std::string const& position, std::string const& rest = R"("radius":0.1,"mass":1)")
+{
+    return spawn(ref, R"({"position":)" + position + "," + rest + "}");
+}
+
+std::string repeated(std::string const& text, std::size_t times)
+{
+    std::string out;
+    out.reserve(text.size() * times);
+    for (std::size_t i = 0; i < times; ++i)
+        out += text;
+    return out;
+}
+
+std::string numbers(std::size_t count)
+{
+    std::string out = "[0";
+    for (std::size_t i = 1; i < count; ++i)
+        out += ",0";
+    return out + "]";
+}
+
+constexpr std::size_t frame_limit = 128 * 1024; // bytes: room for 100000 '[' in one frame
+constexpr int command_burst = 20;
+constexpr std::uint64_t light_body = 2; // 1 µg: a modest impulse gives it a huge speed
+
+// Body 1 is the scene's 2 kg sphere at the origin, body 2 its 1 µg point mass; walls at ±10 m.
+std::vector<hostile_case> catalogue()
+{
+    using namespace std::string_literals;
+    std::string const ok_body = R"({"position":[1,1,1],"radius":0.1,"mass":1})";
+    return {
+        // Not JSON, or not all of it.
+        {"garbage", "{not json", refused("bad_json", "/")},
+        {"empty frame", "", refused("bad_json", "/")},
+        {"truncated after the ref", R"({"type":"ping","ref":1)", refused("bad_json", "/", 1)},
+        {"truncated inside a vector", R"({"type":"spawn","ref":2,"body":{"position":[0,0,)",
+         refused("bad_json", "/body/position/2", 2)},
+        {"trailing garbage", R"({"type":"ping","ref":3}})", refused("bad_json", "/", 3)},
+        {"trailing comma", R"({"type":"ping","ref":4,})", refused("bad_json", "/", 4)},
+        {"single quotes", R"({'type':'ping','ref':5})", refused("bad_json", "/")},
+        {"two messages in one frame", R"({"type":"ping","ref":6} {"type":"ping","ref":7})",
+         refused("bad_json", "/", 6)},
+        {"NUL byte", "\0"s, refused("bad_json", "/")},
+        {"invalid UTF-8", "{\"type\":\"hello\",\"name\":\"\xff\xfe\"}", closed_with{1007}},
+        {"unescaped control character", "{\"type\":\"hello\",\"name\":\"a\nb\"}",
+         refused("bad_json", "/name")},
+        {"comment", R"({"type":"ping", /* hi */ "ref":8})", refused("bad_json", "/")},
+        // The parser reads ref 0 and then fails on "07" or "x10": the ref came before the fault.
+        {"leading zero", R"({"type":"ping","ref":007})", refused("bad_json", "/", 0)},
+        {"hex number", R"({"type":"ping","ref":0x10})", refused("bad_json", "/", 0)},
+
+        // NaN and infinity, spelled every way a lenient parser might take them.
+        {"NaN", spawn_at(10, "[NaN,0,0]"), refused("bad_json", "/body/position/0", 10)},
+        {"nan", spawn_at(11, "[nan,0,0]"), refused("bad_json", "/body/position/0", 11)},
+        {"Infinity", spawn_at(12, "[Infinity,0,0]"), refused("bad_json", "/body/position/0", 12)},
+        {"-Infinity", spawn_at(13, "[-Infinity,0,0]"), refused("bad_json", "/body/position/0", 13)},
+        {"inf", R"({"type":"impulse","ref":14,"id":1,"impulse":[0,0,inf]})",
+         refused("bad_json", "/impulse/2", 14)},
+        {"1e999", spawn_at(15, "[1e999,0,0]"), refused("not_finite", "/body/position/0", 15)},
+        {"-1e999", spawn_at(16, "[0,-1e999,0]"), refused("not_finite", "/body/position/1", 16)},
+        {"1e999 as a mass", spawn_at(17, "[1,1,1]", R"("radius":0.1,"mass":1e999)"),
+         refused("not_finite", "/body/mass", 17)},
+        {"\"NaN\" as a string", spawn_at(18, "[1,1,1]", R"("radius":"NaN","mass":1)"),
+         refused("wrong_type", "/body/radius", 18)},
+        {"\"Infinity\" as a string", R"({"type":"impulse","ref":19,"id":1,"impulse":[0,"Infinity",0]})",
+         refused("wrong_type", "/impulse/1", 19)},
+
+        // Numbers that parse, but put a body where none can be or make no body at all.
+        {"1e308 position", spawn_at(20, "[1e308,0,0]"), refused("outside_world", "/body/position", 20)},
+        {"-1e308 position", spawn_at(21, "[0,0,-1e308]", R"("radius":0,"mass":1)"),
+         refused("outside_world", "/body/position", 21)},
+        {"1e308 radius", spawn_at(22, "[0,5,0]", R"("radius":1e308,"mass":1)"),
+         refused("overlaps_wall", "/body/position", 22)},
+        {"negative radius", spawn_at(23, "[1,1,1]", R"("radius":-1,"mass":1)"),
+         refused("bad_value", "/body/radius", 23)},
+        {"zero mass", spawn_at(24, "[1,1,1]", R"("radius":0.1,"mass":0)"), refused("bad_value", "/body/mass", 24)},
+        {"negative mass", spawn_at(25, "[1,1,1]", R"("radius":0.1,"mass":-2)"), refused("bad_value", "/body/mass", 25)},
+        {"zero density", spawn_at(26, "[1,1,1]", R"("radius":0.1,"density":0)"),
+         refused("bad_value", "/body/density", 26)},
+        {"density of a point mass", spawn_at(27, "[1,1,1]", R"("radius":0,"density":1000)"),
+         refused("bad_value", "/body/density", 27)},
+        {"mass and density", spawn_at(28, "[1,1,1]", R"("radius":0.1,"mass":1,"density":1000)"),
+         refused("bad_value", "/body", 28)},
+        {"neither mass nor density", spawn_at(29, "[1,1,1]", R"("radius":0.1)"), refused("missing_field", "/body", 29)},
+        {"mass too small to invert", spawn_at(30, "[1,1,1]", R"("radius":0.1,"mass":1e-320)"),
+         refused("bad_value", "/body", 30)},
+        {"density whose mass overflows", spawn_at(31, "[1,1,1]", R"("radius":1,"density":1e308)"),
+         refused("bad_value", "/body", 31)},
+        {"impulse to an infinite speed",
+         R"({"type":"impulse","ref":32,"id":)" + std::to_string(light_body) + R"(,"impulse":[1e305,0,0]})",
+         refused("bad_value", "/impulse", 32)},
+        {"spawn at an infinite speed after one tick", spawn_at(33, "[1,1,1]", R"("radius":0.1,"mass":1,"velocity":[1.7e308,0,0])"),
+         refused("bad_value", "/body/velocity", 33)},
+
+        // Wrong types and missing fields.
+        {"ref as a string", R"({"type":"ping","ref":"one"})", refused("wrong_type", "/ref")},
+        {"ref as null", R"({"type":"ping","ref":null})", refused("wrong_type", "/ref")},
+        {"position as a string", spawn_at(40, R"("0,0,0")"), refused("wrong_type", "/body/position", 40)},
+        {"position of two numbers", spawn_at(41, "[0,0]"), refused("bad_value", "/body/position", 41)},
+        {"position of four numbers", spawn_at(42, "[0,0,0,0]"), refused("bad_value", "/body/position", 42)},
+        {"null in a vector", spawn_at(43, "[null,0,0]"), refused("wrong_type", "/body/position/0", 43)},
+        {"boolean in a vector", spawn_at(44, "[1,1,1]", R"("radius":0.1,"mass":1,"velocity":[true,0,0])"),
+         refused("wrong_type", "/body/velocity/0", 44)},
+        {"body as an array", spawn(45, "[]"), refused("wrong_type", "/body", 45)},
+        {"body missing", R"({"type":"spawn","ref":46})", refused("missing_field", "/body", 46)},
+        {"position missing", spawn(47, R"({"radius":0.1,"mass":1})"), refused("missing_field", "/body/position", 47)},
+        {"impulse without id", R"({"type":"impulse","ref":48,"impulse":[1,0,0]})", refused("missing_field", "/id", 48)},
+        {"remove without ref", R"({"type":"remove","id":1})", refused("missing_field", "/ref")},
+        {"name as a number", R"({"type":"hello","name":7})", refused("wrong_type", "/name")},
+
+        // Huge arrays and deep nesting.
+        {"position of 20000 numbers", spawn_at(50, numbers(20000)), refused("bad_value", "/body/position", 50)},
+        {"impulse of 20000 numbers", R"({"type":"impulse","ref":51,"id":1,"impulse":)" + numbers(20000) + "}",
+         refused("bad_value", "/impulse", 51)},
+        {"100000 open brackets", std::string(100000, '['), // the pointer is cut at 200 bytes
+         refused("bad_json", repeated("/0", 98) + "/...")},
+        {"50000 nested arrays", repeated("[", 50000) + repeated("]", 50000), refused("bad_message", "/")},
+        {"deep nesting in an unknown field",
+         R"({"type":"ping","ref":52,"extra":)" + repeated(R"({"a":)", 20000) + "1" + repeated("}", 20000) + "}",
+         answered_with{"pong", 52}},
+        {"deep nesting where a vector belongs", spawn_at(53, repeated("[", 20000) + repeated("]", 20000)),
+         refused("bad_value", "/body/position", 53)},
+
+        // Frames that are not one JSON object of a known type.
+        {"binary frame", R"({"type":"ping","ref":60})", refused("bad_json", "/"), true},
+        {"oversized frame", std::string(frame_limit + 1, ' '), closed_with{1009}},
+        {"unknown type", R"({"type":"teleport","ref":61})", refused("unknown_type", "/type", 61)},
+        {"empty type", R"({"type":"","ref":62})", refused("unknown_type", "/type", 62)},
+        {"type in capitals", R"({"type":"PING","ref":63})", refused("unknown_type", "/type", 63)},
+        {"a server message sent back", R"({"type":"welcome","protocol":1})", refused("unknown_type", "/type")},
+        {"type as a number", R"({"type":42,"ref":64})", refused("bad_message", "/type", 64)},
+        {"no type", R"({"ref":65})", refused("bad_message", "/type", 65)},
+        {"an array", R"([{"type":"ping","ref":66}])", refused("bad_message", "/")},
+        {"a string", R"("ping")", refused("bad_message", "/")},
+        {"null", "null", refused("bad_message", "/")},
+
+        // Duplicated keys (the last one counts, as in JSON.parse) and extra fields (ignored).
+        {"duplicated ref", R"({"type":"ping","ref":70,"ref":71})", answered_with{"pong", 71}},
+        {"duplicated type", R"({"type":"spawn","type":"ping","ref":72})", answered_with{"pong", 72}},
+        {"extra fields", R"({"type":"ping","ref":73,"colour":"red","body":{"mass":-1}})", answered_with{"pong", 73}},
+        {"byte order mark", "\xEF\xBB\xBF" R"({"type":"ping","ref":74})", answered_with{"pong", 74}},
+
+        // hello.
+        {"hello, protocol 1", R"({"type":"hello","protocol":1,"name":"polite"})", no_answer{}},
+        {"hello, protocol 2", R"({"type":"hello","protocol":2})", refused("unsupported_protocol", "/protocol")},
+        {"hello, protocol 0", R"({"type":"hello","protocol":0})", refused("unsupported_protocol", "/protocol")},
+        {"hello, protocol \"1\"", R"({"type":"hello","protocol":"1"})", refused("wrong_type", "/protocol")},
+        {"hello, protocol 1.5", R"({"type":"hello","protocol":1.5})", refused("bad_value", "/protocol")},
+        {"hello, protocol 1e300", R"({"type":"hello","protocol":1e300})", refused("bad_value", "/protocol")},
+
+        // Ids and refs that are not whole numbers below 2^53, and bodies that do not exist.
+        {"id as a string", R"({"type":"impulse","ref":80,"id":"1","impulse":[0,0,1]})", refused("wrong_type", "/id", 80)},
+        {"fractional id", R"({"type":"remove","ref":81,"id":1.5})", refused("bad_value", "/id", 81)},
+        {"negative id", R"({"type":"remove","ref":82,"id":-1})", refused("bad_value", "/id", 82)},
+        {"id of 2^53", R"({"type":"remove","ref":83,"id":9007199254740992})", refused("bad_value", "/id", 83)},
+        {"id beyond 2^64", R"({"type":"remove","ref":84,"id":18446744073709551616})", refused("bad_value", "/id", 84)},
+        {"id 1e20", R"({"type":"remove","ref":85,"id":1e20})", refused("bad_value", "/id", 85)},
+        {"ref of 2^53", R"({"type":"ping","ref":9007199254740992})", refused("bad_value", "/ref")},
+        {"negative ref", R"({"type":"ping","ref":-1})", refused("bad_value", "/ref")},
+        {"largest id, no such body", R"({"type":"remove","ref":86,"id":9007199254740991})",
+         refused("unknown_body", "/id", 86)},
+        {"impulse on an unknown body", R"({"type":"impulse","ref":87,"id":424242,"impulse":[0,0,1]})",
+         refused("unknown_body", "/id", 87)},
+        {"remove of an unknown body", R"({"type":"remove","ref":88,"id":424242})", refused("unknown_body", "/id", 88)},
+        {"id 0", R"({"type":"impulse","ref":89,"id":0,"impulse":[0,0,1]})", refused("unknown_body", "/id", 89)},
+
+        // A flood: the burst passes, every command beyond it is refused.
+        {"command flood", R"({"type":"ping","ref":90})", rate_limited_after{command_burst}, false, command_burst + 10},
+    };
+}
+
+// The harness -----------------------------------------------------------------------------
+
+/// A client whose every message must match its schema.
+class checked_client
+{
+public:
+    checked_client(std::uint16_t port, std::string const& target) : ws_(port, target) {}
+
+    /// The next message other than a snapshot; nullopt once the connection closed.
+    std::optional<json> next_answer(std::chrono::milliseconds timeout = std::chrono::seconds(10))
+    {
+        auto const deadline = ws_client::clock::now() + timeout;
+        while (ws_client::clock::now() < deadline) {
+            auto const text = ws_.read(std::chrono::duration_cast<std::chrono::milliseconds>(
+                deadline - ws_client::clock::now()));
+            if (!text)
+                break;
+            json message = checked(*text);
+            if (message.at("type") != "snapshot")
+                return message;
+        }
+        if (!ws_.closed())
+            throw std::runtime_error("no answer in time");
+        return std::nullopt;
+    }
+
+    /// The first snapshot with tick >= `tick`.
+    json snapshot_at_or_after(std::uint64_t tick)
+    {
+        for (;;) {
+            auto const text = ws_.read();
+            if (!text)
+                throw std::runtime_error(ws_.closed() ? "the observer was disconnected" : "no snapshot in time");
+            json message = checked(*text);
+            if (message.at("type") == "snapshot" && message.at("tick").get<std::uint64_t>() >= tick)
+                return message;
+        }
+    }
+
+    ws_client& raw() { return ws_; }
+
+private:
+    static json checked(std::string const& text)
+    {
+        json message = json::parse(text);
+        EXPECT_EQ(schemas().refusal(message), "") << text.substr(0, 300);
+        return message;
+    }
+
+    ws_client ws_;
+};
+
+json lab_scene()
+{
+    return {{"name", "lab"},
+            {"dt", 1.0 / 64.0},
+            {"integrator", "semi_implicit_euler"},
+            {"collisions", {{"mode", "off"}}},
+            {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+            {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}},
+                                    {{"position", {3, 0, 0}}, {"radius", 0.0}, {"mass", 1e-9}}})}};
+}
+
+server_options lab_options()
+{
+    fs::path const file = fs::path(testing::TempDir()) / "kugel_hostile_input_lab.json";
+    std::ofstream(file) << lab_scene().dump(2);
+    server_options o;
+    o.rooms.push_back({"lab", file});
+    o.client.max_message_bytes = frame_limit;
+    // The burst, then one command per 1000 s: no token accrues while the test runs, so the
+    // flood row sees exactly the burst pass; every other row uses at most two commands.
+    o.client.command_burst = command_burst;
+    o.client.commands_per_second = 0.001;
+    return o;
+}
+
+/// Sends the row and checks its answer; returns whether the connection is still open.
+bool send_and_check(checked_client& hostile, hostile_case const& c)
+{
+    ws_client& ws = hostile.raw();
+    for (int i = 0; i < c.repeat; ++i) {
+        if (c.binary)
+            ws.send_binary(c.frame);
+        else
+            ws.send(c.frame);
+    }
+    return std::visit(
+        [&](auto const& expected) -> bool {
+            using E = std::decay_t<decltype(expected)>;
+            if constexpr (std::is_same_v<E, refused_with>) {
+                auto const answer = hostile.next_answer();
+                if (!answer) {
+                    ADD_FAILURE() << "closed with " << ws.close_code() << " instead of an error";
+                    return false;
+                }
+                EXPECT_EQ(answer->at("type"), "error") << answer->dump();
+                EXPECT_EQ(answer->value("code", ""), expected.code) << answer->dump();
+                std::string const message = answer->value("message", "");
+                EXPECT_EQ(message.substr(0, expected.pointer.size() + 2), expected.pointer + ": ")
+                    << message;
+                if (expected.ref)
+                    EXPECT_EQ(answer->value("ref", json()), *expected.ref) << answer->dump();
+                else
+                    EXPECT_FALSE(answer->contains("ref")) << answer->dump();
+                return true;
+            } else if constexpr (std::is_same_v<E, closed_with>) {
+                while (auto const answer = hostile.next_answer())
+                    ADD_FAILURE() << "an answer before the close: " << answer->dump();
+                EXPECT_EQ(ws.close_code(), expected.code);
+                return false;
+            } else if constexpr (std::is_same_v<E, answered_with>) {
+                auto const answer = hostile.next_answer();
+                if (!answer) {
+                    ADD_FAILURE() << "closed with " << ws.close_code();
+                    return false;
+                }
+                EXPECT_EQ(answer->at("type"), expected.type) << answer->dump();
+                EXPECT_EQ(answer->value("ref", json()), expected.ref) << answer->dump();
+                return true;
+            } else if constexpr (std::is_same_v<E, no_answer>) {
+                return true; // the ping that follows must be the next answer
+            } else {
+                int answered = 0;
+                int limited = 0;
+                for (int i = 0; i < c.repeat; ++i) {
+                    auto const answer = hostile.next_answer();
+                    if (!answer) {
+                        ADD_FAILURE() << "closed with " << ws.close_code();
+                        return false;
+                    }
+                    if (answer->at("type") == "pong")
+                        ++answered;
+                    else if (answer->value("code", "") == "rate_limited")
+                        ++limited;
+                    else
+                        ADD_FAILURE() << "unexpected " << answer->dump();
+                }
+                EXPECT_EQ(answered, expected.answered);
+                EXPECT_EQ(limited, c.repeat - expected.answered);
+                return false; // no token left for the ping that would follow
+            }
+        },
+        c.expected);
+}
+
+TEST(HostileInput, CatalogueHasAtLeastFortyRows)
+{
+    EXPECT_GE(catalogue().size(), 40U);
+}
+
+TEST(HostileInput, EachIsAnsweredAsDocumentedAndChangesNothing)
+{
+    test_support::in_process_server s(lab_options());
+    auto const lab = s.get().find_room("lab");
+    checked_client observer(s.port(), "/ws/lab");
+    json last = observer.snapshot_at_or_after(1);
+
+    std::uint64_t sync_ref = 1'000'000;
+    for (hostile_case const& c : catalogue()) {
+        SCOPED_TRACE(c.name);
+        json const before = observer.snapshot_at_or_after(last.at("tick").get<std::uint64_t>() + 1);
+        std::uint64_t const bodies_before = lab->counters().bodies.load();
+
+        checked_client hostile(s.port(), "/ws/lab");
+        auto const welcome = hostile.next_answer();
+        ASSERT_TRUE(welcome && welcome->at("type") == "welcome");
+        bool const still_open = send_and_check(hostile, c);
+
+        // The world after every command sent so far had its tick: a pong carries the last
+        // tick completed, and every answer above came at or before it.
+        std::uint64_t settled = lab->counters().ticks.load() + 1;
+        if (still_open) {
+            hostile.raw().send(json{{"type", "ping"}, {"ref", ++sync_ref}});
+            auto const pong = hostile.next_answer();
+            ASSERT_TRUE(pong) << "closed with " << hostile.raw().close_code();
+            ASSERT_EQ(pong->at("type"), "pong") << pong->dump();
+            EXPECT_EQ(pong->at("ref"), sync_ref);
+            settled = pong->at("tick").get<std::uint64_t>() + 1;
+        }
+        last = observer.snapshot_at_or_after(settled);
+        EXPECT_GT(last.at("tick").get<std::uint64_t>(), before.at("tick").get<std::uint64_t>());
+        EXPECT_EQ(last.at("bodies"), before.at("bodies")) << "the world changed";
+        EXPECT_EQ(lab->counters().bodies.load(), bodies_before);
+    }
+
+    // Afterwards the room still takes commands from a polite client, and the observer sees them.
+    checked_client polite(s.port(), "/ws/lab");
+    polite.raw().send(json{{"type", "spawn"}, {"ref", 1}, {"body", {{"position", {1, 2, 3}}, {"radius", 0.1}, {"mass", 1}}}});
+    auto const welcome = polite.next_answer();
+    ASSERT_TRUE(welcome);
+    auto const ack = polite.next_answer();
+    ASSERT_TRUE(ack);
+    ASSERT_EQ(ack->at("type"), "ack") << ack->dump();
+    json const after = observer.snapshot_at_or_after(ack->at("tick").get<std::uint64_t>());
+    EXPECT_EQ(after.at("bodies").at("id").size(), 3U);
+    EXPECT_EQ(lab->counters().bodies.load(), 3U);
+}
+
+} // namespace
+} // namespace kugel::server

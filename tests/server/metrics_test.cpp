@@ -1,0 +1,247 @@
+// /metrics, /readyz and /healthz of an in-process server: the text parses as Prometheus'
+// exposition format, and after known traffic each counter has moved by exactly what was sent.
+
+#include "metrics.hpp"
+#include "server.hpp"
+
+#include "support/http_get.hpp"
+#include "support/in_process_server.hpp"
+#include "support/ws_client.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cmath>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <regex>
+#include <set>
+#include <sstream>
+#include <thread>
+
+namespace kugel::server {
+namespace {
+
+using nlohmann::json;
+using test_support::http_get;
+using test_support::ws_client;
+namespace fs = std::filesystem;
+
+/// Every sample of a scrape, by its series (`name{labels}` as written); fails the test for
+/// a line that is neither a sample, a # HELP or a # TYPE, for a sample whose family has no
+/// # TYPE before it, and for a family described twice.
+std::map<std::string, double> parse_metrics(std::string const& text)
+{
+    static std::regex const comment(R"(# (HELP|TYPE) ([a-zA-Z_:][a-zA-Z0-9_:]*) (.+))");
+    static std::regex const sample(
+        R"(([a-zA-Z_:][a-zA-Z0-9_:]*)(\{[a-zA-Z_][a-zA-Z0-9_]*="(?:[^"\\]|\\.)*"(?:,[a-zA-Z_][a-zA-Z0-9_]*="(?:[^"\\]|\\.)*")*\})? ([-+]?(?:[0-9.eE+-]+|Inf|NaN)))");
+    static std::set<std::string> const types{"counter", "gauge", "histogram", "summary", "untyped"};
+    std::map<std::string, double> samples;
+    std::set<std::string> typed;
+    std::set<std::string> described;
+    std::istringstream in(text);
+    std::string line;
+    EXPECT_TRUE(text.empty() || text.back() == '\n') << "the text must end in a newline";
+    while (std::getline(in, line)) {
+        std::smatch m;
+        if (std::regex_match(line, m, comment)) {
+            EXPECT_TRUE(described.insert(m[1].str() + " " + m[2].str()).second) << "twice: " << line;
+            if (m[1] == "TYPE") {
+                EXPECT_TRUE(types.contains(m[3].str())) << line;
+                typed.insert(m[2].str());
+            }
+        } else if (std::regex_match(line, m, sample)) {
+            std::string name = m[1].str();
+            bool has_type = typed.contains(name);
+            for (std::string const suffix : {"_bucket", "_sum", "_count"})
+                if (name.ends_with(suffix))
+                    has_type = has_type || typed.contains(name.substr(0, name.size() - suffix.size()));
+            EXPECT_TRUE(has_type) << "no # TYPE before " << line;
+            std::string const value = m[3].str();
+            double const x = value == "+Inf" ? HUGE_VAL : std::stod(value);
+            EXPECT_TRUE(samples.emplace(m[1].str() + m[2].str(), x).second) << "twice: " << line;
+        } else {
+            ADD_FAILURE() << "not exposition format: '" << line << "'";
+        }
+    }
+    return samples;
+}
+
+std::map<std::string, double> scrape(std::uint16_t port)
+{
+    auto const reply = http_get(port, "/metrics");
+    EXPECT_EQ(reply.status, 200U);
+    EXPECT_EQ(reply.content_type, metrics_content_type);
+    return parse_metrics(reply.body);
+}
+
+fs::path write_scene(std::string const& name, json const& scene)
+{
+    fs::path const file = fs::path(testing::TempDir()) / ("kugel_metrics_test_" + name + ".json");
+    std::ofstream(file) << scene.dump(2);
+    return file;
+}
+
+json still_scene(int generated = 0)
+{
+    json scene{{"name", "still"},
+               {"dt", 1.0 / 64.0},
+               {"integrator", "semi_implicit_euler"},
+               {"collisions", {{"mode", "off"}}},
+               {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+               {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
+    if (generated > 0)
+        scene["generators"] = json::array({{{"count", generated},
+                                            {"placement", "lattice"},
+                                            {"radius", 0.05},
+                                            {"mass", 1.0},
+                                            {"max_speed", 0.0},
+                                            {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
+    return scene;
+}
+
+server_options lab(int generated = 0)
+{
+    server_options o;
+    o.rooms.push_back({"lab", write_scene("lab" + std::to_string(generated), still_scene(generated))});
+    return o;
+}
+
+std::string rejected(std::string const& code)
+{
+    return R"(kugel_commands_rejected_total{room="lab",code=")" + code + R"("})";
+}
+
+/// The next message that is not a snapshot; counts the snapshots passed on the way.
+json next_answer(ws_client& c, int& snapshots)
+{
+    for (;;) {
+        json message = c.read_json();
+        if (message.at("type") != "snapshot")
+            return message;
+        ++snapshots;
+    }
+}
+
+TEST(Metrics, CountersMoveByExactlyTheTrafficSent)
+{
+    server_options options = lab();
+    options.client.command_burst = 4;
+    options.client.commands_per_second = 0.001; // no token accrues during the test
+    options.client.max_message_bytes = 1024;
+    test_support::in_process_server s(options);
+
+    auto const before = scrape(s.port());
+    ASSERT_TRUE(before.contains(rejected("bad_json")));
+
+    ws_client c(s.port(), "/ws/lab");
+    int snapshots = 0;
+    ASSERT_EQ(next_answer(c, snapshots).at("type"), "welcome");
+    for (int i = 0; i < 3; ++i)
+        c.send(std::string("{bad"));
+    for (int i = 0; i < 2; ++i)
+        c.send(json{{"type", "remove"}, {"ref", i}, {"id", 424242}});
+    for (int i = 0; i < 6; ++i) // 2 pass (the removes took 2 of the burst of 4), 4 are refused
+        c.send(json{{"type", "ping"}, {"ref", 100 + i}});
+    std::map<std::string, int> answers;
+    for (int i = 0; i < 11; ++i) {
+        json const a = next_answer(c, snapshots);
+        ++answers[a.at("type") == "error" ? a.at("code").get<std::string>() : a.at("type").get<std::string>()];
+    }
+    EXPECT_EQ(answers, (std::map<std::string, int>{{"bad_json", 3}, {"unknown_body", 2}, {"pong", 2}, {"rate_limited", 4}}));
+
+    ws_client big(s.port(), "/ws/lab");
+    ASSERT_EQ(next_answer(big, snapshots).at("type"), "welcome");
+    big.send(std::string(2000, ' '));
+    while (big.read()) {
+    }
+    ASSERT_EQ(big.close_code(), 1009);
+
+    auto const after = scrape(s.port());
+    auto const moved = [&](std::string const& series) { return after.at(series) - before.at(series); };
+    EXPECT_EQ(moved(rejected("bad_json")), 3);
+    EXPECT_EQ(moved(rejected("unknown_body")), 2);
+    EXPECT_EQ(moved(rejected("rate_limited")), 4);
+    EXPECT_EQ(moved(rejected("message_too_large")), 1);
+    EXPECT_EQ(moved(rejected("bad_value")), 0);
+    EXPECT_EQ(moved(R"(kugel_messages_in_total{room="lab"})"), 3 + 2 + 6 + 1);
+    // Two welcomes and the eleven answers; every snapshot the clients read was counted.
+    EXPECT_EQ(moved(R"(kugel_messages_out_total{room="lab",kind="reply"})"), 2 + 11);
+    EXPECT_GE(moved(R"(kugel_messages_out_total{room="lab",kind="snapshot"})"), snapshots);
+    EXPECT_GT(moved(R"(kugel_bytes_out_total{room="lab"})"), 0);
+    EXPECT_EQ(after.at(R"(kugel_bodies{room="lab"})"), 1);
+    EXPECT_GE(after.at(R"(kugel_clients{room="lab"})"), 1); // big leaves at the next snapshot
+
+    // The histogram: cumulative buckets, +Inf equal to the count, one tick per record (a
+    // scrape may fall between a tick's end and its record).
+    double const ticks = after.at(R"(kugel_ticks_total{room="lab"})");
+    double const count = after.at(R"(kugel_tick_duration_seconds_count{room="lab"})");
+    EXPECT_GT(ticks, 0);
+    EXPECT_LE(count, ticks);
+    EXPECT_GE(count, ticks - 1);
+    EXPECT_EQ(after.at(R"(kugel_tick_duration_seconds_bucket{room="lab",le="+Inf"})"), count);
+    double previous = 0;
+    for (double const bound : tick_histogram::upper_bounds) {
+        std::ostringstream series;
+        series << R"(kugel_tick_duration_seconds_bucket{room="lab",le=")" << bound << R"("})";
+        ASSERT_TRUE(after.contains(series.str())) << series.str();
+        EXPECT_GE(after.at(series.str()), previous);
+        previous = after.at(series.str());
+    }
+    EXPECT_LE(previous, count);
+    EXPECT_GT(after.at(R"(kugel_tick_duration_seconds_sum{room="lab"})"), 0);
+}
+
+TEST(Metrics, ASlowClientsReplacedSnapshotsAreCountedAsDropped)
+{
+    server_options options = lab(2000); // snapshots of about 250 kB fill a socket fast
+    options.client.write_stall = std::chrono::milliseconds(60'000);
+    test_support::in_process_server s(options);
+    ws_client stalled(s.port(), "/ws/lab"); // never reads
+    std::string const series = R"(kugel_snapshots_dropped_total{room="lab"})";
+    auto const deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    double dropped = 0;
+    while ((dropped = scrape(s.port()).at(series)) == 0 && std::chrono::steady_clock::now() < deadline)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    EXPECT_GT(dropped, 0);
+}
+
+TEST(Metrics, LabelValuesAreEscaped)
+{
+    metrics_text m;
+    m.begin({"kugel_example", "gauge", "An example."});
+    m.sample("kugel_example", {{"room", "a\"b\\c\nd"}}, std::uint64_t{7});
+    EXPECT_EQ(m.text(), "# HELP kugel_example An example.\n# TYPE kugel_example gauge\n"
+                        "kugel_example{room=\"a\\\"b\\\\c\\nd\"} 7\n");
+    parse_metrics(m.text());
+}
+
+TEST(Readiness, ReadyzIs200OnceEveryRoomTicksAndHealthzStays)
+{
+    server_options options = lab();
+    options.rooms.push_back({"other", write_scene("other", still_scene())});
+    test_support::in_process_server s(options);
+    ws_client c(s.port(), "/ws/other");
+    while (c.read_json().at("type") != "snapshot") {
+    }
+    ws_client d(s.port(), "/ws/lab");
+    while (d.read_json().at("type") != "snapshot") {
+    } // both rooms have ticked
+
+    auto const ready = http_get(s.port(), "/readyz");
+    EXPECT_EQ(ready.status, 200U) << ready.body;
+    EXPECT_EQ(ready.content_type, "application/json");
+    json const body = json::parse(ready.body);
+    EXPECT_EQ(body.at("status"), "ready");
+    EXPECT_EQ(body.at("ready"), true);
+    EXPECT_EQ(body.at("rooms").at("lab").at("ready"), true);
+    EXPECT_EQ(body.at("rooms").at("other").at("ready"), true);
+
+    auto const health = http_get(s.port(), "/healthz");
+    EXPECT_EQ(health.status, 200U);
+    EXPECT_EQ(json::parse(health.body).at("status"), "ok");
+}
+
+} // namespace
+} // namespace kugel::server

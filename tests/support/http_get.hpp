@@ -1,0 +1,41 @@
+#pragma once
+
+// One HTTP GET on a fresh connection to 127.0.0.1, for the server tests.
+
+#include <boost/asio/connect.hpp>
+#include <boost/asio/io_context.hpp>
+#include <boost/asio/ip/tcp.hpp>
+#include <boost/beast/core.hpp>
+#include <boost/beast/http.hpp>
+
+#include <cstdint>
+#include <string>
+
+namespace kugel::test_support {
+
+struct http_reply
+{
+    unsigned status = 0;
+    std::string content_type;
+    std::string body;
+};
+
+inline http_reply http_get(std::uint16_t port, std::string const& target)
+{
+    namespace beast = boost::beast;
+    namespace http = beast::http;
+    boost::asio::io_context io;
+    boost::asio::ip::tcp::socket socket(io);
+    boost::asio::ip::tcp::resolver resolver(io);
+    boost::asio::connect(socket, resolver.resolve("127.0.0.1", std::to_string(port)));
+    http::request<http::empty_body> request{http::verb::get, target, 11};
+    request.set(http::field::host, "127.0.0.1");
+    request.keep_alive(false);
+    http::write(socket, request);
+    beast::flat_buffer buffer;
+    http::response<http::string_body> response;
+    http::read(socket, buffer, response);
+    return {response.result_int(), std::string(response[http::field::content_type]), response.body()};
+}
+
+} // namespace kugel::test_support
