@@ -164,6 +164,7 @@ source_tree::sample source_tree::field_at(vec3 const& y, std::size_t self, doubl
         double const inv_r3 = inv_r * inv_r * inv_r;
         if (!std::isfinite(inv_r3))
             return false;
+        ++out.interactions;
         out.field += (strength * inv_r3) * d;
         if (with_potential)
             out.potential += strength * inv_r;
@@ -185,6 +186,7 @@ source_tree::sample source_tree::field_at(vec3 const& y, std::size_t self, doubl
                 return out;
             }
         } else if (c.child_count == 0) { // an opened leaf: body by body
+            out.pair_terms += c.count;
             for (std::uint32_t j = c.first; j < c.first + c.count; ++j) {
                 if (body_[j] == self)
                     continue;

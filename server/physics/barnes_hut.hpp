@@ -43,6 +43,8 @@ public:
         double potential = 0.0;    ///< Σ s_j/√(|x_j − y|² + ε²), when asked for
         /// A source at distance 0 with ε = 0 (the sum is singular), or none.
         std::size_t singular_with = no_body;
+        std::size_t interactions = 0; ///< monopoles and single sources summed: the cost
+        std::size_t pair_terms = 0; ///< of which single sources (opened leaves)
     };
     static constexpr std::size_t no_body = std::numeric_limits<std::size_t>::max();
 
