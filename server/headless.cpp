@@ -1,5 +1,6 @@
 #include "headless.hpp"
 
+#include "physics/barnes_hut.hpp"
 #include "physics/diagnostics.hpp"
 
 #include <chrono>
@@ -21,6 +22,31 @@ double relative_drift(physics::diagnostics const& initial, physics::diagnostics 
     double const scale = std::abs(initial.kinetic) + std::abs(initial.potential);
     double const change = final.total - initial.total;
     return scale > 0.0 ? change / scale : change;
+}
+
+/// How each pairwise law is summed: {"gravity": {"method": "tree", "theta": 0.5}, ...}. A
+/// tree's error is bounded relative to the force; for Coulomb with charges of both signs
+/// only relative to each sign's field, and the summary says so.
+nlohmann::ordered_json force_methods(scene::scene const& s, physics::world const& w)
+{
+    auto const describe = [](scene::force_method method, double theta) {
+        nlohmann::ordered_json out;
+        out["method"] = scene::name(method);
+        if (method == scene::force_method::tree)
+            out["theta"] = theta;
+        return out;
+    };
+    nlohmann::ordered_json methods = nlohmann::ordered_json::object();
+    if (auto const& g = s.forces.gravity)
+        methods["gravity"] = describe(g->method, g->theta);
+    if (auto const& c = s.forces.coulomb) {
+        methods["coulomb"] = describe(c->method, c->theta);
+        if (c->method == scene::force_method::tree && physics::has_mixed_charges(w.bodies()))
+            methods["coulomb"]["error_bound"] =
+                "per sign only: charges of both signs, so the tree's error is bounded relative "
+                "to each sign's field, not to the net force, which can cancel";
+    }
+    return methods;
 }
 
 } // namespace
@@ -45,6 +71,7 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps)
     for (auto const& model : world.forces())
         forces.push_back(model->name());
     summary["forces"] = forces;
+    summary["force_methods"] = force_methods(s, world);
     summary["collision_mode"] = physics::name(s.collisions.mode);
     if (s.collisions.mode != physics::collision_mode::off)
         summary["broadphase"] = physics::name(s.collisions.broadphase);

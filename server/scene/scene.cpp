@@ -1,6 +1,8 @@
 #include "scene.hpp"
 
+#include "physics/barnes_hut.hpp"
 #include "physics/forces.hpp"
+#include "physics/plummer_sphere.hpp"
 
 #include <nlohmann/json.hpp>
 
@@ -194,29 +196,43 @@ physics::body_desc read_body(json const& value, location const& at)
 body_generator read_generator(json const& value, location const& at)
 {
     object(value, at,
-           {"count", "seed", "placement", "region", "max_speed", "radius", "mass", "density",
-            "charge"});
+           {"count", "seed", "placement", "region", "max_speed", "centre", "scale_radius", "radius",
+            "mass", "density", "charge"});
     body_generator g;
     if (auto const* where = find(value, "placement")) {
         std::string const name = text(*where, at / "placement");
         if (name == "lattice")
             g.where = placement::lattice;
+        else if (name == "plummer")
+            g.where = placement::plummer;
         else if (name != "random")
-            (at / "placement").fail("unknown placement '" + name + "' (known: random, lattice)");
+            (at / "placement").fail("unknown placement '" + name + "' (known: random, lattice, plummer)");
     }
     g.count = whole_number(required(value, "count", at), at / "count", 0, max_scene_bodies);
     g.seed = optional_field(value, "seed", at, std::uint64_t{1}, [](json const& v, location const& l) {
         return whole_number(v, l, 0, std::uint64_t{1} << 53U);
     });
-    location const region_at = at / "region";
-    json const& region = object(required(value, "region", at), region_at, {"min", "max"});
-    g.region.min = vector3(required(region, "min", region_at), region_at / "min");
-    g.region.max = vector3(required(region, "max", region_at), region_at / "max");
-    if (!(g.region.min.array() <= g.region.max.array()).all())
-        (region_at / "max").fail("must be >= min on every axis");
-    g.max_speed = optional_field(value, "max_speed", at, 0.0, [](json const& v, location const& l) {
-        return number_at_least(v, l, 0.0, false);
-    });
+    if (g.where == placement::plummer) {
+        for (char const* key : {"region", "max_speed"})
+            if (find(value, key))
+                (at / key).fail("a plummer sphere is placed by centre and scale_radius, its speeds "
+                                "drawn from its equilibrium; remove this field");
+        g.centre = optional_field(value, "centre", at, g.centre, vector3);
+        g.scale_radius = number_at_least(required(value, "scale_radius", at), at / "scale_radius", 0.0, true);
+    } else {
+        for (char const* key : {"centre", "scale_radius"})
+            if (find(value, key))
+                (at / key).fail("only used with placement plummer; give a region instead");
+        location const region_at = at / "region";
+        json const& region = object(required(value, "region", at), region_at, {"min", "max"});
+        g.region.min = vector3(required(region, "min", region_at), region_at / "min");
+        g.region.max = vector3(required(region, "max", region_at), region_at / "max");
+        if (!(g.region.min.array() <= g.region.max.array()).all())
+            (region_at / "max").fail("must be >= min on every axis");
+        g.max_speed = optional_field(value, "max_speed", at, 0.0, [](json const& v, location const& l) {
+            return number_at_least(v, l, 0.0, false);
+        });
+    }
     g.radius = optional_field(value, "radius", at, 0.0, [](json const& v, location const& l) {
         return number_at_least(v, l, 0.0, false);
     });
@@ -377,6 +393,28 @@ physics::collision_settings read_collisions(json const& value, location const& a
     return c;
 }
 
+/// `method` and `theta` of a pairwise law; theta only with the tree, where it is used.
+void read_method(json const& value, location const& at, force_method& method, double& theta)
+{
+    if (auto const* m = find(value, "method")) {
+        std::string const name = text(*m, at / "method");
+        if (name == "tree")
+            method = force_method::tree;
+        else if (name != "direct")
+            (at / "method").fail("unknown method '" + name + "' (known: direct, tree)");
+    }
+    if (auto const* t = find(value, "theta")) {
+        if (method != force_method::tree)
+            (at / "theta").fail("is the tree's opening angle; it needs \"method\": \"tree\" "
+                                "(the method here is direct)");
+        double const x = number(*t, at / "theta");
+        if (!(x > 0.0 && x <= physics::max_opening_angle))
+            (at / "theta").fail("must be > 0 and <= 1, got " + format(x) +
+                                " (0 would be exact: use method direct)");
+        theta = x;
+    }
+}
+
 force_settings read_forces(json const& value, location const& at)
 {
     object(value, at, {"uniform_field", "gravity", "coulomb"});
@@ -390,17 +428,19 @@ force_settings read_forces(json const& value, location const& at)
         f.uniform_field->g = optional_field(*u, "g", at / "uniform_field", f.uniform_field->g, vector3);
     }
     if (auto const* g = find(value, "gravity")) {
-        object(*g, at / "gravity", {"G", "softening"});
+        object(*g, at / "gravity", {"G", "softening", "method", "theta"});
         gravity_settings s;
         s.G = optional_field(*g, "G", at / "gravity", s.G, non_negative);
         s.softening = optional_field(*g, "softening", at / "gravity", s.softening, non_negative);
+        read_method(*g, at / "gravity", s.method, s.theta);
         f.gravity = s;
     }
     if (auto const* c = find(value, "coulomb")) {
-        object(*c, at / "coulomb", {"k", "softening"});
+        object(*c, at / "coulomb", {"k", "softening", "method", "theta"});
         coulomb_settings s;
         s.k = optional_field(*c, "k", at / "coulomb", s.k, non_negative);
         s.softening = optional_field(*c, "softening", at / "coulomb", s.softening, non_negative);
+        read_method(*c, at / "coulomb", s.method, s.theta);
         f.coulomb = s;
     }
     return f;
@@ -465,6 +505,11 @@ scene read_scene(json const& doc, location const& at)
             location const g_at = at / "generators" / i;
             s.generators.push_back(read_generator((*generators)[i], g_at));
             check_lattice_fits(s.generators.back(), g_at);
+            if (s.generators.back().where == placement::plummer &&
+                !(s.forces.gravity && s.forces.gravity->G > 0.0))
+                (g_at / "placement")
+                    .fail("a plummer sphere needs forces.gravity with G > 0: its velocities "
+                          "balance its own gravity");
         }
     }
     if (s.body_count() > max_scene_bodies)
@@ -531,6 +576,11 @@ double unit_random(std::mt19937_64& rng)
 
 } // namespace
 
+std::string_view name(force_method method)
+{
+    return method == force_method::tree ? "tree" : "direct";
+}
+
 std::uint64_t scene::body_count() const
 {
     std::uint64_t n = bodies.size();
@@ -573,16 +623,37 @@ physics::world build_world(scene const& s)
         w.add_obstacle({o.box, o.damping, o.friction});
     if (s.forces.uniform_field)
         w.add_force(std::make_unique<physics::uniform_field>(s.forces.uniform_field->g));
-    if (s.forces.gravity)
-        w.add_force(std::make_unique<physics::newtonian_gravity>(s.forces.gravity->G,
-                                                                 s.forces.gravity->softening));
-    if (s.forces.coulomb)
-        w.add_force(
-            std::make_unique<physics::coulomb>(s.forces.coulomb->k, s.forces.coulomb->softening));
+    if (auto const& g = s.forces.gravity) {
+        if (g->method == force_method::tree)
+            w.add_force(std::make_unique<physics::tree_gravity>(g->G, g->softening, g->theta));
+        else
+            w.add_force(std::make_unique<physics::newtonian_gravity>(g->G, g->softening));
+    }
+    if (auto const& c = s.forces.coulomb) {
+        if (c->method == force_method::tree)
+            w.add_force(std::make_unique<physics::tree_coulomb>(c->k, c->softening, c->theta));
+        else
+            w.add_force(std::make_unique<physics::coulomb>(c->k, c->softening));
+    }
 
     for (auto const& body : s.bodies)
         w.add_body(body);
     for (auto const& g : s.generators) {
+        if (g.where == placement::plummer) { // checked at load: the scene has gravity, G > 0
+            if (g.count == 0)
+                continue;
+            auto const sphere = physics::plummer_sphere(
+                {.count = g.count, .total_mass = g.mass * static_cast<double>(g.count),
+                 .scale_radius = g.scale_radius, .G = s.forces.gravity->G, .seed = g.seed});
+            for (auto b : sphere) {
+                b.position += g.centre;
+                b.radius = g.radius;
+                b.mass = g.mass;
+                b.charge = g.charge;
+                w.add_body(b);
+            }
+            continue;
+        }
         std::mt19937_64 rng(g.seed);
         physics::vec3 const size = g.region.max - g.region.min;
         double spacing = 0.0;

@@ -31,17 +31,31 @@ struct uniform_field_settings
     physics::vec3 g{0.0, 0.0, -9.81}; ///< m/s²
 };
 
+/// How a pairwise law is summed: every pair (exact, O(n²)) or through a Barnes–Hut tree
+/// (O(n log n), error set by the opening angle θ).
+enum class force_method {
+    direct,
+    tree,
+};
+
 struct gravity_settings
 {
     double G = 6.6743e-11;  ///< m³/(kg·s²)
     double softening = 0.0; ///< m, Plummer ε
+    force_method method = force_method::direct;
+    double theta = 0.5; ///< the tree's opening angle, in (0, 1]; only with method tree
 };
 
 struct coulomb_settings
 {
     double k = 8.9875517923e9; ///< N·m²/C²
     double softening = 0.0;    ///< m
+    force_method method = force_method::direct;
+    double theta = 0.5; ///< as for gravity
 };
+
+/// "direct" or "tree".
+std::string_view name(force_method method);
 
 /// The force models a scene names; only these are built.
 struct force_settings
@@ -54,17 +68,22 @@ struct force_settings
 enum class placement {
     random,  ///< uniform in the region; spheres may overlap
     lattice, ///< on a cubic lattice filling the region, no two spheres overlapping
+    plummer, ///< a Plummer sphere in equilibrium under the scene's gravity (no region)
 };
 
 /// N bodies placed in a box, each with a velocity drawn uniformly from the ball of radius
-/// max_speed. Seeded: the same scene always gives the same bodies.
+/// max_speed; or (placement plummer) a Plummer sphere around `centre`, positions and
+/// velocities drawn from its equilibrium under the scene's G. Seeded: the same scene always
+/// gives the same bodies.
 struct body_generator
 {
     std::uint64_t count = 0;
     placement where = placement::random;
     std::uint64_t seed = 1;
-    physics::aabb region;   ///< m
-    double max_speed = 0.0; ///< m/s
+    physics::aabb region;   ///< m; random and lattice
+    double max_speed = 0.0; ///< m/s; random and lattice
+    physics::vec3 centre = physics::vec3::Zero(); ///< m; plummer
+    double scale_radius = 0.0;                    ///< m, a > 0; plummer
     double radius = 0.0;    ///< m
     double mass = 1.0;      ///< kg, from `mass` or from `density`
     double charge = 0.0;    ///< C

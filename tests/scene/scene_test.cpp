@@ -1,5 +1,7 @@
 #include "scene/scene.hpp"
 
+#include "physics/barnes_hut.hpp"
+
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 #include <valijson/adapters/nlohmann_json_adapter.hpp>
@@ -173,7 +175,43 @@ INSTANTIATE_TEST_SUITE_P(
                  "/obstacles/0/half_extents: must be >= 0"},
         bad_case{"unknown_placement",
                  R"({"dt": 0.1, "generators": [{"count": 2, "mass": 1, "placement": "spiral", "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
-                 "/generators/0/placement: unknown placement 'spiral' (known: random, lattice)"},
+                 "/generators/0/placement: unknown placement 'spiral' (known: random, lattice, plummer)"},
+        bad_case{"unknown_force_method", R"({"dt": 0.1, "forces": {"gravity": {"method": "fmm"}}})",
+                 "/forces/gravity/method: unknown method 'fmm' (known: direct, tree)"},
+        bad_case{"theta_without_tree", R"({"dt": 0.1, "forces": {"gravity": {"theta": 0.5}}})",
+                 "/forces/gravity/theta: is the tree's opening angle; it needs \"method\": \"tree\""},
+        bad_case{"theta_with_direct",
+                 R"({"dt": 0.1, "forces": {"coulomb": {"method": "direct", "theta": 0.5}}})",
+                 "/forces/coulomb/theta: is the tree's opening angle"},
+        bad_case{"theta_zero", R"({"dt": 0.1, "forces": {"gravity": {"method": "tree", "theta": 0}}})",
+                 "/forces/gravity/theta: must be > 0 and <= 1, got 0 (0 would be exact: use method direct)"},
+        bad_case{"theta_too_large",
+                 R"({"dt": 0.1, "forces": {"coulomb": {"method": "tree", "theta": 1.5}}})",
+                 "/forces/coulomb/theta: must be > 0 and <= 1, got 1.5"},
+        bad_case{"theta_as_string",
+                 R"({"dt": 0.1, "forces": {"gravity": {"method": "tree", "theta": "wide"}}})",
+                 "/forces/gravity/theta: must be a number, got string"},
+        bad_case{"plummer_without_scale_radius",
+                 R"({"dt": 0.1, "forces": {"gravity": {"G": 1}}, "generators": [{"count": 2, "mass": 1, "placement": "plummer"}]})",
+                 "/generators/0/scale_radius: missing (required)"},
+        bad_case{"plummer_with_region",
+                 R"({"dt": 0.1, "forces": {"gravity": {"G": 1}}, "generators": [{"count": 2, "mass": 1, "placement": "plummer", "scale_radius": 1, "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/generators/0/region: a plummer sphere is placed by centre and scale_radius"},
+        bad_case{"plummer_zero_scale_radius",
+                 R"({"dt": 0.1, "forces": {"gravity": {"G": 1}}, "generators": [{"count": 2, "mass": 1, "placement": "plummer", "scale_radius": 0}]})",
+                 "/generators/0/scale_radius: must be > 0, got 0"},
+        bad_case{"plummer_without_gravity",
+                 R"({"dt": 0.1, "generators": [{"count": 2, "mass": 1, "placement": "plummer", "scale_radius": 1}]})",
+                 "/generators/0/placement: a plummer sphere needs forces.gravity with G > 0"},
+        bad_case{"plummer_with_zero_g",
+                 R"({"dt": 0.1, "forces": {"gravity": {"G": 0}}, "generators": [{"count": 2, "mass": 1, "placement": "plummer", "scale_radius": 1}]})",
+                 "/generators/0/placement: a plummer sphere needs forces.gravity with G > 0", false},
+        bad_case{"scale_radius_without_plummer",
+                 R"({"dt": 0.1, "generators": [{"count": 2, "mass": 1, "scale_radius": 1, "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/generators/0/scale_radius: only used with placement plummer"},
+        bad_case{"random_without_region",
+                 R"({"dt": 0.1, "generators": [{"count": 2, "mass": 1}]})",
+                 "/generators/0/region: missing (required)"},
         bad_case{"lattice_too_dense",
                  R"({"dt": 0.1, "generators": [{"count": 1000, "mass": 1, "radius": 0.2, "placement": "lattice", "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
                  "/generators/0: a lattice of 1000 spheres of radius 0.2 does not fit", false},
@@ -270,6 +308,61 @@ TEST(SceneForces, OnlyNamedModelsAreBuilt)
     ASSERT_EQ(two.forces().size(), 2U);
     EXPECT_EQ(two.forces()[0]->name(), "uniform_field");
     EXPECT_EQ(two.forces()[1]->name(), "coulomb");
+}
+
+TEST(SceneForces, MethodChoosesDirectSumOrTree)
+{
+    scene const direct = parse_scene(R"({"dt": 1, "forces": {"gravity": {}, "coulomb": {}}})", "t.json");
+    EXPECT_EQ(direct.forces.gravity->method, force_method::direct);
+    auto const direct_world = build_world(direct);
+    EXPECT_NE(dynamic_cast<physics::newtonian_gravity const*>(direct_world.forces()[0].get()), nullptr);
+    EXPECT_NE(dynamic_cast<physics::coulomb const*>(direct_world.forces()[1].get()), nullptr);
+
+    scene const tree = parse_scene(R"({"dt": 1, "forces": {
+        "gravity": {"G": 2, "softening": 0.1, "method": "tree", "theta": 0.7},
+        "coulomb": {"k": 3, "method": "tree"}}})",
+                                   "t.json");
+    auto const tree_world = build_world(tree);
+    auto const* gravity = dynamic_cast<physics::tree_gravity const*>(tree_world.forces()[0].get());
+    ASSERT_NE(gravity, nullptr);
+    EXPECT_EQ(gravity->name(), "gravity");
+    EXPECT_EQ(gravity->G(), 2.0);
+    EXPECT_EQ(gravity->softening(), 0.1);
+    EXPECT_EQ(gravity->theta(), 0.7);
+    auto const* electric = dynamic_cast<physics::tree_coulomb const*>(tree_world.forces()[1].get());
+    ASSERT_NE(electric, nullptr);
+    EXPECT_EQ(electric->k(), 3.0);
+    EXPECT_EQ(electric->theta(), 0.5); // the default
+}
+
+TEST(SceneForces, MethodAndThetaCanBeSetFromTheCommandLine)
+{
+    scene const s = parse_scene(small_scene, "test.json",
+                                std::vector<std::string>{"forces.gravity.method=tree",
+                                                         "forces.gravity.theta=0.3"});
+    EXPECT_EQ(s.forces.gravity->method, force_method::tree);
+    EXPECT_EQ(s.forces.gravity->theta, 0.3);
+}
+
+TEST(SceneGenerators, PlummerSphereIsSeededAroundItsCentre)
+{
+    char const* text = R"({"dt": 0.01, "forces": {"gravity": {"G": 1, "method": "tree"}},
+        "generators": [{"count": 500, "seed": 3, "placement": "plummer", "centre": [10, 0, -5],
+                        "scale_radius": 2, "mass": 0.5, "charge": 0.25, "radius": 0.01}]})";
+    scene const s = parse_scene(text, "test.json");
+    physics::world const a = build_world(s);
+    physics::world const b = build_world(s);
+    ASSERT_EQ(a.bodies().size(), 500U);
+    physics::vec3 centre = physics::vec3::Zero();
+    for (std::size_t i = 0; i < a.bodies().size(); ++i) {
+        EXPECT_EQ(a.bodies().positions()[i], b.bodies().positions()[i]);
+        EXPECT_EQ(a.bodies().masses()[i], 0.5);
+        EXPECT_EQ(a.bodies().charges()[i], 0.25);
+        EXPECT_EQ(a.bodies().radii()[i], 0.01);
+        EXPECT_LE((a.bodies().positions()[i] - physics::vec3(10, 0, -5)).norm(), 20.0 * (1 + 1e-9));
+        centre += a.bodies().positions()[i] / 500.0;
+    }
+    EXPECT_LE((centre - physics::vec3(10, 0, -5)).norm(), 1e-12);
 }
 
 TEST(SceneBodies, DefaultsAndStaticBodies)

@@ -8,6 +8,7 @@
 #include <filesystem>
 #include <memory>
 #include <string>
+#include <vector>
 
 namespace kugel::server {
 namespace {
@@ -119,6 +120,43 @@ TEST(HeadlessRun, SingularForceStopsTheRunAndIsReported)
     EXPECT_NE(summary["error"].get<std::string>().find("softening"), std::string::npos);
     EXPECT_EQ(summary["steps_completed"], 4);
     EXPECT_EQ(summary["time"], 0.5);
+}
+
+// The galaxy scene, shrunk to 1,000 bodies: the tree method is reported, and over 50 steps
+// (half a crossing time) velocity Verlet with tree forces keeps energy to about 1e-4 of its
+// scale (a full 10,000-body run of 100 steps measured 3.8e-5; see bench/README.md).
+TEST(HeadlessRun, GalaxyRunsWithTheTreeAndKeepsEnergy)
+{
+    std::vector<std::string> const smaller{"generators.0.count=1000", "generators.0.mass=0.001"};
+    auto const s = scene::load_scene(scene("galaxy.json"), smaller);
+    auto const summary = run_headless(s, 50);
+    EXPECT_EQ(summary["force_methods"]["gravity"]["method"], "tree");
+    EXPECT_EQ(summary["force_methods"]["gravity"]["theta"], 0.5);
+    EXPECT_EQ(summary["bodies"], 1000);
+    EXPECT_LT(std::abs(summary["energy_rel_drift"].get<double>()), 1e-3) << summary.dump();
+}
+
+// Coulomb through the tree with charges of both signs: the summary says the bound holds per
+// sign only; with one sign (or the direct sum) it says nothing of the kind.
+TEST(HeadlessRun, TreeCoulombWithMixedChargesSaysTheBoundIsPerSign)
+{
+    auto const mixed = scene::parse_scene(
+        R"({"dt": 0.001, "forces": {"coulomb": {"k": 1, "softening": 0.1, "method": "tree"}},
+            "bodies": [{"position": [0,0,0], "mass": 1, "charge": 1},
+                       {"position": [1,0,0], "mass": 1, "charge": -1}]})",
+        "mixed.json");
+    auto const summary = run_headless(mixed, 1);
+    EXPECT_EQ(summary["force_methods"]["coulomb"]["method"], "tree");
+    EXPECT_NE(summary["force_methods"]["coulomb"]["error_bound"].get<std::string>().find("per sign"),
+              std::string::npos);
+    auto const one_sign = scene::parse_scene(
+        R"({"dt": 0.001, "forces": {"coulomb": {"k": 1, "softening": 0.1, "method": "tree"}},
+            "bodies": [{"position": [0,0,0], "mass": 1, "charge": 1},
+                       {"position": [1,0,0], "mass": 1, "charge": 2}]})",
+        "one_sign.json");
+    EXPECT_FALSE(run_headless(one_sign, 1)["force_methods"]["coulomb"].contains("error_bound"));
+    auto const direct = scene::parse_scene(R"({"dt": 0.001, "forces": {"coulomb": {}}})", "d.json");
+    EXPECT_EQ(run_headless(direct, 1)["force_methods"]["coulomb"]["method"], "direct");
 }
 
 TEST(HeadlessCommand, SingularSceneExitsNonZero)
