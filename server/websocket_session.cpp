@@ -109,7 +109,21 @@ void websocket_session::on_read(beast::error_code ec, std::size_t)
     bump(room_->traffic().messages_in);
     handle_message(beast::buffers_to_string(buffer_.data()));
     buffer_.consume(buffer_.size());
-    do_read();
+    read_if_room();
+}
+
+// Back-pressure on reading: every message read owes one answer, and a burst read from the
+// socket's buffer can owe answers faster than they are written. Past half the reply queue
+// the next read waits until writes have caught up, so a client that reads its answers is
+// never closed for a burst, and one that stops reading stops being read (its stalled write
+// then drops it).
+void websocket_session::read_if_room()
+{
+    if (closing_)
+        return;
+    reading_paused_ = replies_.size() + awaiting_room_ >= limits_.max_queued_replies / 2;
+    if (!reading_paused_)
+        do_read();
 }
 
 void websocket_session::handle_message(std::string_view text)
@@ -147,6 +161,7 @@ void websocket_session::handle_message(std::string_view text)
                         limits_.commands_per_second)})));
         return;
     }
+    ++awaiting_room_;
     room_->submit(shared_from_this(), std::move(message));
 }
 
@@ -165,6 +180,8 @@ bool websocket_session::take_command_token()
 void websocket_session::send_reply(std::shared_ptr<std::string const> bytes)
 {
     net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(bytes)]() mutable {
+        // An answer to a command, or the welcome (which answers none: hence no underflow).
+        self->awaiting_room_ -= self->awaiting_room_ > 0 ? 1 : 0;
         self->queue_reply(std::move(bytes));
     });
 }
@@ -237,6 +254,8 @@ void websocket_session::on_write(beast::error_code ec, std::size_t)
     if (ec)
         return fail(ec, "websocket write");
     write_next();
+    if (reading_paused_)
+        read_if_room();
 }
 
 void websocket_session::close_with(websocket::close_code code, std::string_view reason)

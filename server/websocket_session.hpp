@@ -47,6 +47,7 @@ private:
 
     void on_accept(beast::error_code ec);
     void do_read();
+    void read_if_room();
     void on_read(beast::error_code ec, std::size_t bytes);
     void handle_message(std::string_view text);
     bool take_command_token();
@@ -69,6 +70,9 @@ private:
     std::shared_ptr<std::string const> latest_snapshot_; ///< not yet sent
     std::shared_ptr<std::string const> in_flight_;       ///< being written
     clock::time_point write_started_;
+    /// Commands handed to the room and not answered yet: each gets exactly one answer.
+    std::size_t awaiting_room_ = 0;
+    bool reading_paused_ = false; ///< too many answers owed: the next read waits for writes
     bool accepted_ = false;
     bool closing_ = false; ///< a close was started or the connection dropped: write nothing more
 
