@@ -145,7 +145,17 @@ std::optional<double> sphere_time_of_impact(vec3 const& x1, vec3 const& v1, doub
     // b = d·v and c = d·d − (r₁ + r₂)².
     double const reach = r1 + r2;
     vec3 const d = x1 - x2;
-    vec3 const v = v1 - v2;
+    vec3 const relative_velocity = v1 - v2;
+    // The time scales as 1/|v|, so it is found for v scaled by a power of two to a largest
+    // component in [1, 2), then scaled back. Power-of-two scaling is exact: for ordinary
+    // speeds the result is bit for bit the unscaled one. Unscaled, a relative speed below
+    // about 1e-154 made a R² (below) underflow to 0, and the time came out wrong (1.67/speed
+    // instead of 1/speed for a 1 m gap); above about 1e154 it overflowed.
+    double const largest = relative_velocity.cwiseAbs().maxCoeff();
+    if (!(largest > 0.0))
+        return std::nullopt; // no relative motion: no approach
+    int const exponent = std::ilogb(largest);
+    vec3 const v = relative_velocity.unaryExpr([&](double x) { return std::ldexp(x, -exponent); });
     double const b = accurate_dot<3>(components(d), components(v)); // d·v
     // Lecture: no hit when (x₂ − x₁)·v₁ < 0; also none for b = 0 (no approach).
     if (!(b < 0.0))
@@ -182,8 +192,8 @@ std::optional<double> sphere_time_of_impact(vec3 const& x1, vec3 const& v1, doub
     //   t = c / (−b + √(b² − a c)),
     // whose denominator is a sum of two non-negative terms (b < 0), so it never cancels, and
     // never divides by a.
-    double const t = c / (-b + std::sqrt(discriminant));
-    if (!(t <= t_max))
+    double const t = std::ldexp(c / (-b + std::sqrt(discriminant)), -exponent);
+    if (!(t <= t_max) || !std::isfinite(t))
         return std::nullopt;
     return t;
 }
