@@ -107,6 +107,8 @@ private:
     void schedule_next_tick();
     void schedule_next_checkpoint();
     void on_checkpoint_timer(beast::error_code ec);
+    /// Encodes and writes a taken checkpoint; any thread, one write at a time.
+    bool write(checkpoint const& c, clock::duration take_cost);
 
     std::uint64_t add_body(physics::body_desc const& desc); ///< the new body's wire id
     /// The body a command names, or nothing after answering it with unknown_body.
@@ -123,7 +125,8 @@ private:
     net::steady_timer checkpoint_timer_;
     std::string scene_name_;
     std::string scene_fingerprint_;
-    bool checkpoint_failing_ = false; ///< the last write failed; logged once per streak
+    std::atomic<bool> checkpoint_failing_{false}; ///< the last write failed; logged once per streak
+    std::atomic<bool> checkpoint_writing_{false}; ///< a periodic write is under way off the strand
 
     physics::world world_;
     double dt_;                        ///< s per tick
