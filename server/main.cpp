@@ -3,6 +3,7 @@
 // fixed number of steps without networking and prints one JSON summary on stdout. Logs go
 // to stderr.
 
+#include "checkpoint.hpp"
 #include "headless.hpp"
 #include "scene/scene.hpp"
 #include "server.hpp"
@@ -72,6 +73,9 @@ int serve(kugel::server::server_options const& options)
         spdlog::info("stopped");
         return 0;
     } catch (scene::scene_error const& e) {
+        spdlog::error("{}", e.what());
+        return 2;
+    } catch (server::checkpoint_error const& e) {
         spdlog::error("{}", e.what());
         return 2;
     } catch (std::invalid_argument const& e) {
@@ -148,6 +152,19 @@ int main(int argc, char** argv)
         ->capture_default_str();
     app.add_option("--threads", options.threads, "Network and room threads (0: one per core)")
         ->capture_default_str();
+    std::string state_dir;
+    app.add_option("--state", state_dir,
+                   "Keep each room's world in DIR/ROOM.json: restored at start, checkpointed\n"
+                   "atomically every --checkpoint-interval and at SIGTERM/SIGINT. A checkpoint\n"
+                   "of another scene or format, or a corrupt one, stops the start (exit 2)");
+    double checkpoint_interval = 5.0;
+    app.add_option("--checkpoint-interval", checkpoint_interval,
+                   "Seconds between checkpoints with --state (a kill -9 loses at most this)")
+        ->check(CLI::Range(0.001, 86'400.0))
+        ->capture_default_str();
+    app.add_flag("--discard-bad-state", options.discard_bad_state,
+                 "With --state: move an unusable checkpoint aside (ROOM.json.bad-TIME) and start\n"
+                 "that room from its scene instead of refusing to start");
     CLI11_PARSE(app, argc, argv);
     spdlog::set_level(spdlog::level::from_str(log_level));
 
@@ -164,6 +181,9 @@ int main(int argc, char** argv)
             return 2;
         }
         options.web_root = web_root;
+        options.state_dir = state_dir;
+        options.checkpoint_interval = std::chrono::duration_cast<std::chrono::milliseconds>(
+            std::chrono::duration<double>(checkpoint_interval));
         options.client.commands_per_second = static_cast<double>(commands_per_second);
         options.client.command_burst = options.client.commands_per_second;
         return serve(options);

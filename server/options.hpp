@@ -40,6 +40,12 @@ struct server_options
     /// After a stop, how long closing handshakes may take before the rest is cut off.
     std::chrono::milliseconds shutdown_grace{1000};
     client_limits client;
+    /// Where each room's checkpoint lives (DIR/ROOM.json); empty: no persistence.
+    std::filesystem::path state_dir;
+    std::chrono::milliseconds checkpoint_interval{5000}; ///< between checkpoints, > 0
+    /// A checkpoint that cannot be used is moved aside (ROOM.json.bad-<time>) and the room
+    /// starts fresh; without this the server refuses to start.
+    bool discard_bad_state = false;
 };
 
 } // namespace kugel::server

@@ -67,22 +67,113 @@ std::string describe(protocol::vec3 const& v) { return fmt::format("[{}, {}, {}]
 
 } // namespace
 
-room::room(net::io_context& io, std::string name, scene::scene const& s, settings config)
-    : name_(std::move(name)), settings_(config), strand_(net::make_strand(io)), timer_(strand_),
+room::room(net::io_context& io, std::string name, scene::scene const& s, settings config,
+           std::string scene_fingerprint, std::optional<checkpoint> restored)
+    : name_(std::move(name)), settings_(std::move(config)), strand_(net::make_strand(io)),
+      timer_(strand_),
       period_(std::chrono::duration_cast<clock::duration>(
-          std::chrono::duration<double>(1.0 / config.tick_rate))),
-      world_(scene::build_world(s)), dt_(s.dt),
-      send_charges_(s.forces.coulomb.has_value())
+          std::chrono::duration<double>(1.0 / settings_.tick_rate))),
+      checkpoint_timer_(strand_), scene_name_(s.name),
+      scene_fingerprint_(std::move(scene_fingerprint)),
+      world_(restored ? restored_world(s, *restored, checkpoint_path(settings_.state_dir, name_).string())
+                      : scene::build_world(s)),
+      dt_(s.dt), send_charges_(s.forces.coulomb.has_value())
 {
     welcome_ = make_welcome(name_, s, world_, settings_);
     auto const ids = world_.bodies().ids();
-    for (physics::body_id id : ids) {
+    for (std::size_t slot = 0; slot < ids.size(); ++slot) {
+        physics::body_id const id = ids[slot];
+        // A restored body keeps its wire id; the scene's bodies get 1, 2, 3, ...
+        std::uint64_t const wire_id = restored ? restored->bodies[slot].wire_id : next_wire_id_++;
         if (wire_id_of_index_.size() <= id.index)
             wire_id_of_index_.resize(id.index + 1, 0);
-        wire_id_of_index_[id.index] = next_wire_id_;
-        body_of_wire_id_.emplace(next_wire_id_++, id);
+        wire_id_of_index_[id.index] = wire_id;
+        body_of_wire_id_.emplace(wire_id, id);
+    }
+    if (restored) {
+        next_wire_id_ = restored->next_wire_id;
+        counters_.ticks = restored->tick;
     }
     counters_.bodies = world_.bodies().size();
+}
+
+checkpoint room::take_checkpoint() const
+{
+    physics::body_storage const& bodies = world_.bodies();
+    checkpoint c;
+    c.room = name_;
+    c.scene_name = scene_name_;
+    c.scene_fingerprint = scene_fingerprint_;
+    c.tick = counters_.ticks;
+    c.time = world_.time();
+    c.time_compensation = world_.time_compensation();
+    c.steps = world_.steps();
+    c.next_wire_id = next_wire_id_;
+    c.bodies.reserve(bodies.size());
+    for (std::size_t slot = 0; slot < bodies.size(); ++slot)
+        c.bodies.push_back({wire_id_of_index_[bodies.ids()[slot].index], bodies.describe(slot)});
+    return c;
+}
+
+bool room::write_checkpoint()
+{
+    if (settings_.state_dir.empty())
+        return false;
+    auto const started = clock::now();
+    checkpoint const c = take_checkpoint();
+    return write(c, clock::now() - started);
+}
+
+bool room::write(checkpoint const& c, clock::duration take_cost)
+{
+    std::filesystem::path const file = checkpoint_path(settings_.state_dir, name_);
+    try {
+        auto const started = clock::now();
+        std::string const text = encode_checkpoint(c);
+        auto const encoded = clock::now();
+        write_file_atomically(file, text);
+        using ms = std::chrono::duration<double, std::milli>;
+        spdlog::debug("room '{}': checkpoint of tick {} ({} bodies, {} bytes): take {:.2f} ms on "
+                      "the strand, then encode {:.2f} ms, write and fsync {:.2f} ms",
+                      name_, c.tick, c.bodies.size(), text.size(), ms(take_cost).count(),
+                      ms(encoded - started).count(), ms(clock::now() - encoded).count());
+        if (checkpoint_failing_.exchange(false))
+            spdlog::info("room '{}': checkpoints to {} work again", name_, file.string());
+        return true;
+    } catch (std::exception const& e) {
+        // The room goes on; the last good checkpoint stays in place.
+        if (!checkpoint_failing_.exchange(true))
+            spdlog::error("room '{}': cannot write checkpoint {}: {}", name_, file.string(), e.what());
+        return false;
+    }
+}
+
+void room::schedule_next_checkpoint()
+{
+    if (!running_ || settings_.state_dir.empty())
+        return;
+    checkpoint_timer_.expires_after(settings_.checkpoint_interval);
+    checkpoint_timer_.async_wait(beast::bind_front_handler(&room::on_checkpoint_timer, shared_from_this()));
+}
+
+void room::on_checkpoint_timer(beast::error_code ec)
+{
+    if (ec || !running_)
+        return;
+    // Only the copy is taken here, between two ticks (0.2 ms for 10,000 bodies); encoding
+    // and fsync (the most of the cost) run on another worker, so the tick does not wait. One
+    // write at a time: when the last is still under way, this interval's is skipped.
+    if (!checkpoint_writing_.exchange(true)) {
+        auto const started = clock::now();
+        checkpoint c = take_checkpoint();
+        auto const take_cost = clock::now() - started;
+        net::post(strand_.get_inner_executor(),
+                  [self = shared_from_this(), c = std::move(c), take_cost] {
+                      self->write(c, take_cost);
+                      self->checkpoint_writing_ = false;
+                  });
+    }
+    schedule_next_checkpoint();
 }
 
 void room::start()
@@ -92,6 +183,7 @@ void room::start()
         self->next_tick_at_ = clock::now();
         self->report_started_ = self->next_tick_at_;
         self->schedule_next_tick();
+        self->schedule_next_checkpoint();
     });
 }
 
@@ -100,6 +192,7 @@ void room::stop()
     net::dispatch(strand_, [self = shared_from_this()] {
         self->running_ = false;
         self->timer_.cancel();
+        self->checkpoint_timer_.cancel();
         for (member const& m : self->sessions_)
             if (auto session = m.session.lock())
                 session->shut_down();

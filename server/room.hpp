@@ -1,5 +1,6 @@
 #pragma once
 
+#include "checkpoint.hpp"
 #include "metrics.hpp"
 #include "network.hpp"
 #include "options.hpp"
@@ -47,10 +48,17 @@ public:
         double snapshot_rate = 30.0; ///< Hz
         std::size_t max_bodies = 20'000;
         client_limits client;
+        /// Where checkpoints go (DIR/ROOM.json); empty: none are taken.
+        std::filesystem::path state_dir;
+        std::chrono::milliseconds checkpoint_interval{5000};
     };
 
-    /// Builds the scene's world; throws physics::singular_force_error if it cannot start.
-    room(net::io_context& io, std::string name, scene::scene const& s, settings config);
+    /// Builds the scene's world, or (given a checkpoint of this scene) the checkpoint's
+    /// world, ids and tick. `scene_fingerprint` is written into this room's checkpoints.
+    /// Throws physics::singular_force_error if it cannot start, checkpoint_error for a
+    /// checkpoint body the world refuses.
+    room(net::io_context& io, std::string name, scene::scene const& s, settings config,
+         std::string scene_fingerprint = {}, std::optional<checkpoint> restored = {});
 
     std::string const& name() const { return name_; }
     room_counters const& counters() const { return counters_; }
@@ -69,6 +77,13 @@ public:
     void join(std::shared_ptr<websocket_session> session);
     /// Queues a command for the next tick (ping is answered at once).
     void submit(std::shared_ptr<websocket_session> from, protocol::client_message command);
+
+    /// The room's state now. Call it on the room's strand, or while nothing runs the room
+    /// (before start, after the server's threads ended).
+    checkpoint take_checkpoint() const;
+    /// Takes a checkpoint and writes it atomically to the state directory (when there is
+    /// one); a failure is logged, not thrown: false. Same threading rule as take_checkpoint.
+    bool write_checkpoint();
 
 private:
     using clock = std::chrono::steady_clock;
@@ -90,6 +105,10 @@ private:
     void broadcast(std::shared_ptr<std::string const> const& bytes);
     void record(clock::duration cost, std::size_t snapshot_bytes);
     void schedule_next_tick();
+    void schedule_next_checkpoint();
+    void on_checkpoint_timer(beast::error_code ec);
+    /// Encodes and writes a taken checkpoint; any thread, one write at a time.
+    bool write(checkpoint const& c, clock::duration take_cost);
 
     std::uint64_t add_body(physics::body_desc const& desc); ///< the new body's wire id
     /// The body a command names, or nothing after answering it with unknown_body.
@@ -103,6 +122,11 @@ private:
     clock::duration period_;
     clock::time_point next_tick_at_;
     bool running_ = false;
+    net::steady_timer checkpoint_timer_;
+    std::string scene_name_;
+    std::string scene_fingerprint_;
+    std::atomic<bool> checkpoint_failing_{false}; ///< the last write failed; logged once per streak
+    std::atomic<bool> checkpoint_writing_{false}; ///< a periodic write is under way off the strand
 
     physics::world world_;
     double dt_;                        ///< s per tick

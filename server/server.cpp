@@ -1,5 +1,6 @@
 #include "server.hpp"
 
+#include "checkpoint.hpp"
 #include "listener.hpp"
 #include "room.hpp"
 #include "websocket_session.hpp"
@@ -13,7 +14,9 @@
 
 #include <atomic>
 #include <cmath>
+#include <fstream>
 #include <map>
+#include <sstream>
 #include <stdexcept>
 
 namespace kugel::server {
@@ -32,6 +35,7 @@ struct server::state
     std::chrono::milliseconds shutdown_grace{1000};
     std::atomic<bool> stopping{false};
     std::atomic<std::uint64_t> next_client_id{1};
+    bool final_checkpoints_written = false;
 };
 
 namespace {
@@ -46,6 +50,8 @@ void check(server_options const& o)
         if (r.name.empty() || r.name.find_first_of("/?#% ") != std::string::npos)
             throw std::invalid_argument("room name '" + r.name +
                                         "' must be non-empty, without / ? # % or spaces");
+    if (!o.state_dir.empty() && o.checkpoint_interval <= std::chrono::milliseconds::zero())
+        throw std::invalid_argument("--checkpoint-interval must be > 0");
 }
 
 } // namespace
@@ -58,23 +64,76 @@ std::size_t worker_count(server_options const& o)
     return std::max<std::size_t>(o.threads ? o.threads : std::thread::hardware_concurrency(), 1);
 }
 
+/// The scene file's bytes, for its fingerprint (load_scene has read and checked it).
+std::string read_text(std::filesystem::path const& file)
+{
+    std::ifstream in(file, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+/// The room's checkpoint when there is a usable one. One that cannot be used stops the
+/// server (checkpoint_error), or with discard_bad_state is moved aside for a fresh start.
+std::optional<checkpoint> restore_or_discard(server_options const& options, std::string const& room,
+                                             scene::scene const& s, std::string const& fingerprint)
+{
+    std::filesystem::path const file = checkpoint_path(options.state_dir, room);
+    try {
+        std::optional<checkpoint> c = read_checkpoint(file, room, s.name, fingerprint);
+        if (c) {
+            // Bodies the world refuses are found here too, before anything is started.
+            (void)restored_world(s, *c, file.string());
+            spdlog::info("room '{}': restored from {}: tick {}, time {} s, {} bodies, next id {}",
+                         room, file.string(), c->tick, c->time, c->bodies.size(), c->next_wire_id);
+        } else {
+            spdlog::info("room '{}': no checkpoint at {}, starting from the scene", room,
+                         file.string());
+        }
+        return c;
+    } catch (checkpoint_error const& e) {
+        if (!options.discard_bad_state)
+            throw checkpoint_error(std::string(e.what()) +
+                                   " (the file is left as it is; --discard-bad-state moves it "
+                                   "aside and starts the room from its scene)");
+        std::filesystem::path const aside = move_aside(file);
+        spdlog::warn("{}; moved it to {} and starting room '{}' from its scene", e.what(),
+                     aside.string(), room);
+        return std::nullopt;
+    }
+}
+
 } // namespace
 
 server::server(server_options options) : state_(std::make_unique<state>(worker_count(options)))
 {
     state_->shutdown_grace = options.shutdown_grace;
     room::settings const config{options.tick_rate, options.snapshot_rate, options.max_bodies,
-                                options.client};
-    auto const add_room = [&](std::string const& name, scene::scene const& s) {
+                                options.client, options.state_dir, options.checkpoint_interval};
+    if (!options.state_dir.empty()) {
+        std::error_code ec;
+        std::filesystem::create_directories(options.state_dir, ec);
+        if (ec || !std::filesystem::is_directory(options.state_dir))
+            throw std::invalid_argument("--state " + options.state_dir.string() +
+                                        ": not a directory that can be created (" + ec.message() + ")");
+    }
+    auto const add_room = [&](std::string const& name, scene::scene const& s,
+                              std::string_view scene_text) {
         if (state_->rooms.contains(name))
             throw std::invalid_argument("room '" + name + "' is given twice");
-        state_->rooms.emplace(name, std::make_shared<room>(state_->io, name, s, config));
+        std::string const fingerprint = scene_fingerprint(scene_text);
+        std::optional<checkpoint> restored;
+        if (!options.state_dir.empty())
+            restored = restore_or_discard(options, name, s, fingerprint);
+        state_->rooms.emplace(name, std::make_shared<room>(state_->io, name, s, config, fingerprint,
+                                                           std::move(restored)));
         spdlog::info("room '{}': scene '{}', {} bodies, dt {} s", name, s.name, s.body_count(), s.dt);
     };
     if (options.rooms.empty())
-        add_room("default", scene::parse_scene(default_scene_text(), "built-in arena scene"));
+        add_room("default", scene::parse_scene(default_scene_text(), "built-in arena scene"),
+                 default_scene_text());
     for (room_spec const& r : options.rooms)
-        add_room(r.name, scene::load_scene(r.scene_file));
+        add_room(r.name, scene::load_scene(r.scene_file), read_text(r.scene_file));
 
     auto routes = std::make_shared<http_routes>();
     routes->web_root = options.web_root;
@@ -179,6 +238,14 @@ void server::wait()
         if (t.joinable())
             t.join();
     state_->threads.clear();
+    // The last checkpoint, after every thread ended: nothing else touches the rooms now,
+    // and the joins order their last ticks before this.
+    if (state_->stopping && !state_->final_checkpoints_written) {
+        state_->final_checkpoints_written = true;
+        for (auto& [name, r] : state_->rooms)
+            if (r->write_checkpoint())
+                spdlog::info("room '{}': final checkpoint at tick {}", name, r->counters().ticks.load());
+    }
 }
 
 std::shared_ptr<room> server::find_room(std::string_view name) const

@@ -27,6 +27,15 @@ bool world::remove_body(body_id id)
     return removed;
 }
 
+void world::restore_clock(double time, double time_compensation, std::uint64_t steps)
+{
+    if (!(std::isfinite(time) && time >= 0.0 && std::isfinite(time_compensation)))
+        throw std::invalid_argument("a restored time must be finite and >= 0");
+    time_ = time;
+    time_compensation_ = time_compensation;
+    steps_ = steps;
+}
+
 bool world::apply_impulse(body_id id, vec3 const& impulse)
 {
     auto const slot = bodies_.slot_of(id);

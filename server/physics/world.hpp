@@ -63,6 +63,11 @@ public:
     double time() const { return time_; }                ///< s since the start
     std::uint64_t steps() const { return steps_; }        ///< calls to step()
     std::uint64_t force_evaluations() const { return force_evaluations_; }
+    /// The rounding the compensated sum of time still owes (s); saved with a checkpoint.
+    double time_compensation() const { return time_compensation_; }
+    /// Sets the clock a checkpoint recorded, so a restored world continues the same sum of
+    /// dt's and step count. Throws std::invalid_argument for a non-finite or negative time.
+    void restore_clock(double time, double time_compensation, std::uint64_t steps);
 
     /// True when every force named is constant (or none is): the exact integrator is exact.
     bool forces_are_constant() const;

@@ -157,6 +157,13 @@ public:
         return *stopped_;
     }
 
+    /// SIGKILL: no shutdown at all, as in a crash or an OOM kill.
+    void kill()
+    {
+        process_.signal(SIGKILL);
+        stopped_ = process_.wait(std::chrono::seconds(10));
+    }
+
     std::string log() const { return process_.output(); }
 
 private:

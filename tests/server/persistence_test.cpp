@@ -1,0 +1,406 @@
+// Persistence (--state DIR): a room's checkpoint restores the same world, ids and tick; an
+// unusable checkpoint stops the start and is left untouched unless the user discards it; a
+// kugel-server killed with SIGKILL comes back with its last checkpoint. No wall-clock time
+// is asserted: waits have generous timeouts and only bound failures.
+
+#include "checkpoint.hpp"
+#include "room.hpp"
+#include "server.hpp"
+
+#include "support/child_process.hpp"
+#include "support/in_process_server.hpp"
+#include "support/state_hash.hpp"
+#include "support/ws_client.hpp"
+
+#include <gtest/gtest.h>
+#include <nlohmann/json.hpp>
+
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <set>
+#include <sstream>
+#include <thread>
+
+namespace kugel::server {
+namespace {
+
+using nlohmann::json;
+using test_support::ws_client;
+namespace fs = std::filesystem;
+
+/// An empty directory of its own for one test.
+fs::path fresh_dir(std::string const& name)
+{
+    fs::path const dir = fs::path(testing::TempDir()) / ("kugel_persistence_test_" + name);
+    fs::remove_all(dir);
+    fs::create_directories(dir);
+    return dir;
+}
+
+std::string read_text(fs::path const& file)
+{
+    std::ifstream in(file, std::ios::binary);
+    std::stringstream text;
+    text << in.rdbuf();
+    return text.str();
+}
+
+void write_text(fs::path const& file, std::string const& text)
+{
+    std::ofstream(file, std::ios::binary) << text;
+}
+
+/// Nothing moves unless pushed: no forces, no collisions, walls at ±10 m, one body at rest.
+json still_scene()
+{
+    return {{"name", "still"},
+            {"dt", 1.0 / 64.0},
+            {"integrator", "semi_implicit_euler"},
+            {"collisions", {{"mode", "off"}}},
+            {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+            {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
+}
+
+fs::path write_scene(fs::path const& dir, std::string const& name, json const& scene)
+{
+    fs::path const file = dir / (name + ".scene.json");
+    std::ofstream(file) << scene.dump(2);
+    return file;
+}
+
+bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }
+
+/// Every field equal, every double bit for bit.
+void expect_identical(checkpoint const& a, checkpoint const& b)
+{
+    EXPECT_EQ(a.room, b.room);
+    EXPECT_EQ(a.scene_name, b.scene_name);
+    EXPECT_EQ(a.scene_fingerprint, b.scene_fingerprint);
+    EXPECT_EQ(a.tick, b.tick);
+    EXPECT_TRUE(same_bits(a.time, b.time));
+    EXPECT_TRUE(same_bits(a.time_compensation, b.time_compensation));
+    EXPECT_EQ(a.steps, b.steps);
+    EXPECT_EQ(a.next_wire_id, b.next_wire_id);
+    ASSERT_EQ(a.bodies.size(), b.bodies.size());
+    for (std::size_t i = 0; i < a.bodies.size(); ++i) {
+        physics::body_desc const& x = a.bodies[i].desc;
+        physics::body_desc const& y = b.bodies[i].desc;
+        EXPECT_EQ(a.bodies[i].wire_id, b.bodies[i].wire_id) << "slot " << i;
+        for (int k = 0; k < 3; ++k) {
+            EXPECT_TRUE(same_bits(x.position[k], y.position[k])) << "slot " << i;
+            EXPECT_TRUE(same_bits(x.velocity[k], y.velocity[k])) << "slot " << i;
+        }
+        EXPECT_TRUE(same_bits(x.mass, y.mass)) << "slot " << i;
+        EXPECT_TRUE(same_bits(x.radius, y.radius)) << "slot " << i;
+        EXPECT_TRUE(same_bits(x.charge, y.charge)) << "slot " << i;
+        EXPECT_EQ(x.is_static, y.is_static) << "slot " << i;
+    }
+}
+
+json spawn_at(std::uint64_t ref, std::array<double, 3> position, std::array<double, 3> velocity = {})
+{
+    return {{"type", "spawn"},
+            {"ref", ref},
+            {"body", {{"position", position}, {"velocity", velocity}, {"radius", 0.25}, {"mass", 1.0}}}};
+}
+
+json remove(std::uint64_t ref, std::uint64_t id) { return {{"type", "remove"}, {"ref", ref}, {"id", id}}; }
+
+/// The acked id of a spawn (or 0 for another ack).
+std::uint64_t ack_of(ws_client& c, std::uint64_t ref)
+{
+    for (;;) {
+        json const m = c.read_json();
+        if (m.at("type") == "error")
+            throw std::runtime_error(m.dump());
+        if (m.at("type") == "ack" && m.at("ref") == ref)
+            return m.contains("id") ? m.at("id").get<std::uint64_t>() : 0;
+    }
+}
+
+json snapshot_at_or_after(ws_client& c, std::uint64_t tick)
+{
+    for (;;) {
+        json s = c.next("snapshot");
+        if (s.at("tick").get<std::uint64_t>() >= tick)
+            return s;
+    }
+}
+
+std::ptrdiff_t index_of(json const& snapshot, std::uint64_t id)
+{
+    auto const& ids = snapshot.at("bodies").at("id");
+    for (std::size_t i = 0; i < ids.size(); ++i)
+        if (ids[i].get<std::uint64_t>() == id)
+            return static_cast<std::ptrdiff_t>(i);
+    return -1;
+}
+
+/// Runs the default room (the arena) with a spawn and a remove so that ids have a gap,
+/// stops it, and returns its final checkpoint's file.
+fs::path arena_checkpoint(fs::path const& dir, std::uint64_t& spawned, std::uint64_t& removed)
+{
+    server_options o;
+    o.state_dir = dir;
+    o.checkpoint_interval = std::chrono::hours(1); // only the final one
+    test_support::in_process_server s(o);
+    ws_client c(s.port(), "/ws");
+    c.next("welcome");
+    c.send(spawn_at(1, {0.1 + 0.2, 1.0 / 3.0, 3.5}, {0.7, -1e-300, 3.0}));
+    spawned = ack_of(c, 1);
+    removed = 7;
+    c.send(remove(2, removed));
+    ack_of(c, 2);
+    snapshot_at_or_after(c, 30);
+    s.stop();
+    return checkpoint_path(dir, "default");
+}
+
+scene::scene arena() { return scene::parse_scene(default_scene_text(), "arena"); }
+
+TEST(Persistence, CheckpointRestoresBitIdenticalStateIdsAndTick)
+{
+    fs::path const dir = fresh_dir("identical");
+    std::uint64_t spawned = 0, removed = 0;
+    fs::path const file = arena_checkpoint(dir, spawned, removed);
+    std::string const text = read_text(file);
+    checkpoint const saved = decode_checkpoint(text, file.string());
+    EXPECT_GE(saved.tick, 30u);
+    EXPECT_EQ(saved.steps, saved.tick);
+    EXPECT_EQ(saved.scene_fingerprint, scene_fingerprint(default_scene_text()));
+
+    // A room made from it (never started, so nothing else touches it) holds the same state.
+    net::io_context io;
+    room restored(io, "default", arena(), {}, saved.scene_fingerprint, saved);
+    checkpoint const again = restored.take_checkpoint();
+    expect_identical(saved, again);
+    EXPECT_EQ(encode_checkpoint(again), text); // byte for byte
+
+    std::set<std::uint64_t> ids;
+    for (checkpoint::body const& b : saved.bodies)
+        ids.insert(b.wire_id);
+    EXPECT_TRUE(ids.contains(spawned));
+    EXPECT_FALSE(ids.contains(removed));
+    EXPECT_EQ(saved.next_wire_id, spawned + 1);
+}
+
+TEST(Persistence, RestoredWorldStepsOnExactlyLikeTheOriginal)
+{
+    scene::scene const s = arena();
+    physics::world original = scene::build_world(s);
+    for (int i = 0; i < 40; ++i)
+        original.step(s.dt);
+    checkpoint c;
+    c.time = original.time();
+    c.time_compensation = original.time_compensation();
+    c.steps = original.steps();
+    for (std::size_t slot = 0; slot < original.bodies().size(); ++slot)
+        c.bodies.push_back({slot + 1, original.bodies().describe(slot)});
+    c.next_wire_id = c.bodies.size() + 1;
+    physics::world restored =
+        restored_world(s, decode_checkpoint(encode_checkpoint(c), "memory"), "memory");
+    ASSERT_EQ(test_support::state_hash(restored), test_support::state_hash(original));
+    for (int i = 0; i < 40; ++i) {
+        original.step(s.dt);
+        restored.step(s.dt);
+    }
+    EXPECT_EQ(test_support::state_hash(restored), test_support::state_hash(original));
+    EXPECT_TRUE(same_bits(restored.time(), original.time()));
+}
+
+TEST(Persistence, TheIdCounterContinuesAfterARestart)
+{
+    fs::path const dir = fresh_dir("counter");
+    std::uint64_t spawned = 0, removed = 0;
+    checkpoint const saved = decode_checkpoint(read_text(arena_checkpoint(dir, spawned, removed)), "");
+
+    server_options o;
+    o.state_dir = dir;
+    test_support::in_process_server s(o);
+    ws_client c(s.port(), "/ws");
+    c.next("welcome");
+    json const first = c.next("snapshot");
+    EXPECT_GT(first.at("tick").get<std::uint64_t>(), saved.tick);
+    EXPECT_GE(index_of(first, spawned), 0);
+    EXPECT_LT(index_of(first, removed), 0);
+    c.send(spawn_at(1, {-3.0, 3.0, 1.0}));
+    std::uint64_t const fresh = ack_of(c, 1);
+    EXPECT_EQ(fresh, saved.next_wire_id);
+    EXPECT_GT(fresh, spawned);
+    for (checkpoint::body const& b : saved.bodies)
+        EXPECT_NE(b.wire_id, fresh);
+}
+
+/// What a server says about a bad checkpoint, and that it left the file as it was.
+std::string refusal(fs::path const& dir, std::string const& bad_text)
+{
+    fs::path const file = checkpoint_path(dir, "default");
+    write_text(file, bad_text);
+    server_options o;
+    o.state_dir = dir;
+    o.port = 0;
+    std::string message;
+    try {
+        server s(o);
+        ADD_FAILURE() << "the server started with a bad checkpoint";
+    } catch (checkpoint_error const& e) {
+        message = e.what();
+    }
+    EXPECT_EQ(read_text(file), bad_text) << "the bad checkpoint was changed";
+    EXPECT_NE(message.find(file.string()), std::string::npos) << message;
+    return message;
+}
+
+TEST(Persistence, ACorruptOrIncompatibleCheckpointIsRefusedAndLeftUntouched)
+{
+    fs::path const dir = fresh_dir("refused");
+    std::uint64_t spawned = 0, removed = 0;
+    std::string const good = read_text(arena_checkpoint(dir, spawned, removed));
+
+    EXPECT_NE(refusal(dir, good.substr(0, good.size() / 2)).find("not valid JSON"), std::string::npos);
+    EXPECT_NE(refusal(dir, "").find("not valid JSON"), std::string::npos);
+
+    json wrong_version = json::parse(good);
+    wrong_version["version"] = checkpoint_format_version + 1;
+    EXPECT_NE(refusal(dir, wrong_version.dump()).find("/version"), std::string::npos);
+
+    json other_scene = json::parse(good);
+    other_scene["scene"]["fingerprint"] = scene_fingerprint("{\"name\": \"arena\"}");
+    EXPECT_NE(refusal(dir, other_scene.dump()).find("another scene, or the scene file changed"),
+              std::string::npos);
+
+    json bad_body = json::parse(good);
+    bad_body["bodies"]["mass"][0] = -1.0;
+    EXPECT_NE(refusal(dir, bad_body.dump()).find("/bodies (body 0"), std::string::npos);
+
+    // A file of another room's scene: a "still" room's checkpoint under the default room.
+    fs::path const other = fresh_dir("refused_other");
+    server_options o;
+    o.state_dir = other;
+    o.rooms.push_back({"default", write_scene(other, "still", still_scene())});
+    {
+        test_support::in_process_server s(o);
+    }
+    EXPECT_NE(refusal(dir, read_text(checkpoint_path(other, "default"))).find("scene 'still'"),
+              std::string::npos);
+}
+
+TEST(Persistence, DiscardBadStateMovesTheFileAsideAndStartsFresh)
+{
+    fs::path const dir = fresh_dir("discard");
+    fs::path const file = checkpoint_path(dir, "default");
+    write_text(file, "{\"format\": \"kugel-checkpoint\", \"vers");
+    server_options o;
+    o.state_dir = dir;
+    o.discard_bad_state = true;
+    {
+        test_support::in_process_server s(o);
+        ws_client c(s.port(), "/ws");
+        c.next("welcome");
+        EXPECT_LT(c.next("snapshot").at("tick").get<std::uint64_t>(), 1000u); // fresh
+    }
+    std::vector<fs::path> aside;
+    for (auto const& entry : fs::directory_iterator(dir))
+        if (entry.path().filename().string().starts_with("default.json.bad-"))
+            aside.push_back(entry.path());
+    ASSERT_EQ(aside.size(), 1u);
+    EXPECT_EQ(read_text(aside[0]), "{\"format\": \"kugel-checkpoint\", \"vers");
+    // The fresh room's own final checkpoint took the name.
+    EXPECT_NO_THROW(decode_checkpoint(read_text(file), file.string()));
+}
+
+fs::path log_file(std::string const& name)
+{
+    return fs::path(testing::TempDir()) / ("kugel_persistence_test_" + name + ".log");
+}
+
+TEST(PersistenceProcess, SigkillAfterACheckpointRestartsWithThatCheckpointsWorld)
+{
+    fs::path const dir = fresh_dir("sigkill");
+    std::vector<std::string> const args{"--room", "still=" + write_scene(dir, "still", still_scene()).string(),
+                                        "--state", dir.string(), "--checkpoint-interval", "0.05"};
+    fs::path const file = checkpoint_path(dir, "still");
+    std::uint64_t spawned = 0;
+    std::string killed_at; // the checkpoint's text when the server died
+    {
+        test_support::server_child p(KUGEL_SERVER_EXE, args, log_file("sigkill_first"));
+        ws_client c(p.port(), "/ws/still");
+        c.next("welcome");
+        c.send(spawn_at(1, {1.0 / 3.0, -2.5, 0.1 + 0.2}));
+        spawned = ack_of(c, 1);
+        // Wait for a checkpoint that holds the body, then kill the server without warning.
+        auto const deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+        for (;;) {
+            ASSERT_LT(std::chrono::steady_clock::now(), deadline) << p.log();
+            if (fs::exists(file)) { // renamed into place whole: never half written
+                checkpoint const c2 = decode_checkpoint(read_text(file), file.string());
+                if (c2.bodies.size() == 2 && c2.bodies[1].wire_id == spawned)
+                    break;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        p.kill();
+        killed_at = read_text(file);
+    }
+    checkpoint const saved = decode_checkpoint(killed_at, file.string());
+
+    test_support::server_child p(KUGEL_SERVER_EXE, args, log_file("sigkill_second"));
+    EXPECT_NE(p.log().find("restored from"), std::string::npos) << p.log();
+    ws_client c(p.port(), "/ws/still");
+    c.next("welcome");
+    json const s = c.next("snapshot");
+    EXPECT_GT(s.at("tick").get<std::uint64_t>(), saved.tick);
+    std::ptrdiff_t const at = index_of(s, spawned);
+    ASSERT_GE(at, 0) << s.dump();
+    auto const& position = s.at("bodies").at("position");
+    auto const k = static_cast<std::size_t>(3 * at);
+    // At rest with no forces: exactly where it was spawned, and where the checkpoint has it.
+    EXPECT_EQ(position[k].get<double>(), 1.0 / 3.0);
+    EXPECT_EQ(position[k + 1].get<double>(), -2.5);
+    EXPECT_EQ(position[k + 2].get<double>(), 0.1 + 0.2);
+    EXPECT_EQ(position[k + 2].get<double>(), saved.bodies[1].desc.position.z());
+    c.send(spawn_at(2, {0.0, 3.0, 0.0}));
+    EXPECT_EQ(ack_of(c, 2), spawned + 1);
+}
+
+TEST(PersistenceProcess, SigtermWritesAFinalCheckpoint)
+{
+    fs::path const dir = fresh_dir("sigterm");
+    fs::path const file = checkpoint_path(dir, "still");
+    test_support::server_child p(KUGEL_SERVER_EXE,
+                                 {"--room", "still=" + write_scene(dir, "still", still_scene()).string(),
+                                  "--state", dir.string(), "--checkpoint-interval", "3600"},
+                                 log_file("sigterm"));
+    ws_client c(p.port(), "/ws/still");
+    c.next("welcome");
+    c.send(spawn_at(1, {2.0, 2.0, 2.0}));
+    std::uint64_t const spawned = ack_of(c, 1);
+    std::uint64_t const seen = snapshot_at_or_after(c, 10).at("tick").get<std::uint64_t>();
+    EXPECT_FALSE(fs::exists(file)); // the interval has not passed
+    EXPECT_EQ(p.stop(), 0) << p.log();
+    checkpoint const saved = decode_checkpoint(read_text(file), file.string());
+    EXPECT_GE(saved.tick, seen);
+    ASSERT_EQ(saved.bodies.size(), 2u);
+    EXPECT_EQ(saved.bodies[1].wire_id, spawned);
+    EXPECT_EQ(saved.next_wire_id, spawned + 1);
+}
+
+TEST(PersistenceProcess, ABadCheckpointStopsTheStartWithExitTwo)
+{
+    fs::path const dir = fresh_dir("exit_two");
+    fs::path const file = checkpoint_path(dir, "still");
+    write_text(file, "{\"truncated\": ");
+    test_support::child_process p(KUGEL_SERVER_EXE,
+                                  {"--port", "0", "--room",
+                                   "still=" + write_scene(dir, "still", still_scene()).string(),
+                                   "--state", dir.string()},
+                                  log_file("exit_two"));
+    EXPECT_EQ(p.wait(std::chrono::seconds(30)), 2);
+    EXPECT_NE(p.output().find(file.string()), std::string::npos) << p.output();
+    EXPECT_NE(p.output().find("--discard-bad-state"), std::string::npos) << p.output();
+    EXPECT_EQ(read_text(file), "{\"truncated\": ");
+}
+
+} // namespace
+} // namespace kugel::server
