@@ -30,11 +30,7 @@ using nlohmann::json;
 using test_support::ws_client;
 namespace fs = std::filesystem;
 
-protocol::testing::message_schemas const& schemas()
-{
-    static protocol::testing::message_schemas const instance;
-    return instance;
-}
+using protocol::testing::schemas;
 
 // What a row expects ----------------------------------------------------------------------
 

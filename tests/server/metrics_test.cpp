@@ -6,6 +6,7 @@
 
 #include "support/http_get.hpp"
 #include "support/in_process_server.hpp"
+#include "support/scene_files.hpp"
 #include "support/ws_client.hpp"
 
 #include <gtest/gtest.h>
@@ -78,19 +79,12 @@ std::map<std::string, double> scrape(std::uint16_t port)
 
 fs::path write_scene(std::string const& name, json const& scene)
 {
-    fs::path const file = fs::path(testing::TempDir()) / ("kugel_metrics_test_" + name + ".json");
-    std::ofstream(file) << scene.dump(2);
-    return file;
+    return test_support::write_scene(fs::path(testing::TempDir()) / ("kugel_metrics_test_" + name + ".json"), scene);
 }
 
 json still_scene(int generated = 0)
 {
-    json scene{{"name", "still"},
-               {"dt", 1.0 / 64.0},
-               {"integrator", "semi_implicit_euler"},
-               {"collisions", {{"mode", "off"}}},
-               {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
-               {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
+    json scene = test_support::still_scene();
     if (generated > 0)
         scene["generators"] = json::array({{{"count", generated},
                                             {"placement", "lattice"},

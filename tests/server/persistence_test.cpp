@@ -10,6 +10,7 @@
 #include "support/child_process.hpp"
 #include "support/in_process_server.hpp"
 #include "support/state_hash.hpp"
+#include "support/scene_files.hpp"
 #include "support/ws_client.hpp"
 
 #include <gtest/gtest.h>
@@ -51,22 +52,11 @@ void write_text(fs::path const& file, std::string const& text)
     std::ofstream(file, std::ios::binary) << text;
 }
 
-/// Nothing moves unless pushed: no forces, no collisions, walls at ±10 m, one body at rest.
-json still_scene()
-{
-    return {{"name", "still"},
-            {"dt", 1.0 / 64.0},
-            {"integrator", "semi_implicit_euler"},
-            {"collisions", {{"mode", "off"}}},
-            {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
-            {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
-}
+using test_support::still_scene;
 
 fs::path write_scene(fs::path const& dir, std::string const& name, json const& scene)
 {
-    fs::path const file = dir / (name + ".scene.json");
-    std::ofstream(file) << scene.dump(2);
-    return file;
+    return test_support::write_scene(dir / (name + ".scene.json"), scene);
 }
 
 bool same_bits(double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; }

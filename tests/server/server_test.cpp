@@ -12,6 +12,7 @@
 #include "support/child_process.hpp"
 #include "support/http_get.hpp"
 #include "support/in_process_server.hpp"
+#include "support/scene_files.hpp"
 #include "support/ws_client.hpp"
 
 #include <boost/asio/connect.hpp>
@@ -31,11 +32,7 @@ using nlohmann::json;
 using test_support::ws_client;
 namespace fs = std::filesystem;
 
-protocol::testing::message_schemas const& schemas()
-{
-    static protocol::testing::message_schemas const instance;
-    return instance;
-}
+using protocol::testing::schemas;
 
 /// A client whose every message is checked against its schema.
 class client
@@ -83,22 +80,10 @@ private:
 /// A scene file written for one test.
 fs::path write_scene(std::string const& name, json const& scene)
 {
-    fs::path const file = fs::path(testing::TempDir()) / ("kugel_server_test_" + name + ".json");
-    std::ofstream(file) << scene.dump(2);
-    return file;
+    return test_support::write_scene(fs::path(testing::TempDir()) / ("kugel_server_test_" + name + ".json"), scene);
 }
 
-/// Nothing moves unless pushed: no forces, no collisions, walls at ±10 m. One body of
-/// 2 kg at the origin, a power of two so that J/m is exact.
-json still_scene()
-{
-    return {{"name", "still"},
-            {"dt", 1.0 / 64.0},
-            {"integrator", "semi_implicit_euler"},
-            {"collisions", {{"mode", "off"}}},
-            {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
-            {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
-}
+using test_support::still_scene;
 
 using running_server = test_support::in_process_server;
 

@@ -1,0 +1,32 @@
+#pragma once
+
+// Test support: scenes written to files for servers under test.
+
+#include <nlohmann/json.hpp>
+
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+namespace kugel::test_support {
+
+/// Nothing moves unless pushed: no forces, no collisions, walls at ±10 m. One body of
+/// 2 kg at the origin, a power of two so that J/m is exact.
+inline nlohmann::json still_scene()
+{
+    return {{"name", "still"},
+            {"dt", 1.0 / 64.0},
+            {"integrator", "semi_implicit_euler"},
+            {"collisions", {{"mode", "off"}}},
+            {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+            {"bodies", nlohmann::json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
+}
+
+/// Writes `scene` to `file` (indented JSON) and returns the path.
+inline std::filesystem::path write_scene(std::filesystem::path const& file, nlohmann::json const& scene)
+{
+    std::ofstream(file) << scene.dump(2);
+    return file;
+}
+
+} // namespace kugel::test_support
