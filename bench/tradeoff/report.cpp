@@ -41,7 +41,7 @@ std::string describe(study const& s, row const& r)
 {
     std::string text;
     for (std::size_t k = 0; k < s.knob_names.size(); ++k)
-        text += (k ? ", " : "") + s.knob_names[k] + " " + r.knobs[k];
+        text += (k ? ", " : "") + s.knob_names[k] + " = " + r.knobs[k];
     return text;
 }
 
@@ -138,8 +138,9 @@ void write_markdown(std::vector<study> const& studies, report_header const& head
                 } else {
                     row const& r = s.rows[*best[0].second];
                     md << "Fastest setting that meets it: **" << describe(s, r) << "**, "
-                       << number(r.values[s.cost], 3) << " " << s.value_names[s.cost] << " (" << s.value_names[0]
-                       << " " << number(r.values[0], 2) << ").\n\n";
+                       << number(r.values[s.cost], 3) << " " << s.value_names[s.cost] << " ("
+                       << s.value_names[t.bounds.front().first] << ": " << number(r.values[t.bounds.front().first], 2)
+                       << ").\n\n";
                 }
                 continue;
             }
@@ -154,7 +155,7 @@ void write_markdown(std::vector<study> const& studies, report_header const& head
                 std::string setting;
                 for (std::size_t k = 0; k < s.knob_names.size(); ++k)
                     if (k != *t.per_knob)
-                        setting += (setting.empty() ? "" : ", ") + s.knob_names[k] + " " + r.knobs[k];
+                        setting += (setting.empty() ? "" : ", ") + s.knob_names[k] + " = " + r.knobs[k];
                 md << "**" << setting << "**, " << number(r.values[s.cost], 3) << " " << s.value_names[s.cost] << '\n';
             }
             md << '\n';

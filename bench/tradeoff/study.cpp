@@ -20,6 +20,14 @@ std::string number(double value, int significant)
     if (!std::isfinite(value))
         return std::isnan(value) ? "–" : "∞";
     char text[32];
+    double const magnitude = std::abs(value);
+    if (magnitude >= 1.0 && magnitude < 1e6) {
+        // plain digits, never 4e+03: as many decimals as the significant digits leave
+        int const integer_digits = static_cast<int>(std::floor(std::log10(magnitude))) + 1;
+        int const decimals = value == std::round(value) ? 0 : std::max(0, significant - integer_digits);
+        std::snprintf(text, sizeof text, "%.*f", decimals, value);
+        return text;
+    }
     std::snprintf(text, sizeof text, "%.*g", significant, value);
     return text;
 }
