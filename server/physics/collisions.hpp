@@ -55,6 +55,12 @@ struct collision_settings
     /// Continuous mode: events handled per step at most; past it the step finishes in
     /// discrete mode and the step is counted in collision_stats::capped_steps.
     std::uint64_t max_events_per_step = 100'000;
+    /// Continuous mode: events one body may take part in per step; past it the step finishes
+    /// as at max_events_per_step. A light sphere squeezed between a wall and a much heavier
+    /// one collides about π·√(M/m) times before the heavy one turns, ever faster, and at
+    /// such speeds its swept box covers every body, so each of its events re-predicts them
+    /// all: this bound keeps that case to a bounded cost instead of the whole step's cap.
+    std::uint64_t max_events_per_body = 1'000;
 };
 
 /// Counters since the world was made.
@@ -63,7 +69,7 @@ struct collision_stats
     std::uint64_t sphere_contacts = 0;   ///< sphere–sphere responses
     std::uint64_t wall_contacts = 0;     ///< sphere–wall responses
     std::uint64_t obstacle_contacts = 0; ///< sphere–box responses
-    std::uint64_t capped_steps = 0;      ///< continuous steps that hit max_events_per_step
+    std::uint64_t capped_steps = 0;      ///< continuous steps that hit an event cap
     std::uint64_t events = 0;            ///< continuous-mode events processed
 
     std::uint64_t contacts() const { return sphere_contacts + wall_contacts + obstacle_contacts; }
@@ -97,6 +103,7 @@ public:
     std::vector<body_path> paths;       ///< continuous mode: each body's path in this step
     std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
     std::vector<std::uint32_t> version; ///< continuous mode: bumped when a path changes
+    std::vector<std::uint64_t> events_of; ///< continuous mode: events each body took part in
 };
 
 /// Resolves the contacts of one step of length h in the given mode (not `off`).

@@ -196,7 +196,7 @@ public:
           stats_(stats)
     {}
 
-    /// Returns false when the event cap was reached.
+    /// Returns false when an event cap (per step or per body) was reached.
     bool run()
     {
         start_paths();
@@ -207,7 +207,8 @@ public:
             queue_.pop();
             if (!current(e))
                 continue;
-            if (handled == settings_.max_events_per_step)
+            if (handled == settings_.max_events_per_step || !take_part(e.body) ||
+                (e.kind == event_kind::pair && !take_part(e.other)))
                 return false;
             ++handled;
             ++stats_.events;
@@ -229,12 +230,19 @@ public:
 private:
     bool is_dynamic(std::uint32_t i) const { return b_.inverse_mass[i] > 0.0; }
 
+    /// Counts an event of body i; false when i already took part in its share.
+    bool take_part(std::uint32_t i)
+    {
+        return ws_.events_of[i]++ < settings_.max_events_per_body;
+    }
+
     void start_paths()
     {
         std::size_t const n = b_.x.size();
         ws_.paths.resize(n);
         ws_.free_acceleration.resize(n);
         ws_.version.assign(n, 0);
+        ws_.events_of.assign(n, 0);
         ws_.members.clear();
         ws_.boxes.clear();
         for (std::size_t i = 0; i < n; ++i) {

@@ -360,7 +360,7 @@ physics::collision_settings read_collisions(json const& value, location const& a
 {
     object(value, at,
            {"mode", "broadphase", "restitution", "rest_speed", "velocity_iterations",
-            "position_iterations", "max_events_per_step"});
+            "position_iterations", "max_events_per_step", "max_events_per_body"});
     physics::collision_settings c;
     c.mode = physics::collision_mode::discrete; // naming collisions turns them on
     if (auto const* mode = find(value, "mode")) {
@@ -389,6 +389,9 @@ physics::collision_settings read_collisions(json const& value, location const& a
         [](json const& v, location const& l) { return whole_number(v, l, 0, 100); }));
     c.max_events_per_step = optional_field(
         value, "max_events_per_step", at, c.max_events_per_step,
+        [](json const& v, location const& l) { return whole_number(v, l, 1, std::uint64_t{1} << 40U); });
+    c.max_events_per_body = optional_field(
+        value, "max_events_per_body", at, c.max_events_per_body,
         [](json const& v, location const& l) { return whole_number(v, l, 1, std::uint64_t{1} << 40U); });
     return c;
 }

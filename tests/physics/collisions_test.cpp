@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <random>
 
 namespace kugel::physics {
@@ -278,6 +279,33 @@ TEST(EventCap, IsReportedAndTheStepStillFinishesSafely)
         EXPECT_TRUE(x.allFinite());
         EXPECT_GE(x.z(), 0.5 - 1e-12);
     }
+}
+
+// A 1 g sphere squeezed between a wall and a 10⁹ kg sphere collides about π·√(M/m) ≈ 10⁵·π
+// times before the heavy one turns, faster each time; a client could set that up in any
+// continuous room. The per-body cap ends such a step after the light sphere's share of
+// events, not after the step's 10⁵: each event involves one of the two bodies, so a step
+// handles at most twice the per-body cap. The step still finishes safely (discretely).
+TEST(EventCap, OneBodysShareEndsASqueezeLongBeforeTheStepsCap)
+{
+    world_settings s = colliding(collision_mode::continuous);
+    ASSERT_EQ(s.collisions.max_events_per_body, 1000U);
+    ASSERT_EQ(s.collisions.max_events_per_step, 100'000U);
+    world w(s);
+    w.add_wall({make_plane({1, 0, 0}, -4.0), 0.0, 0.0}); // the plane x = -4
+    w.add_body(ball({-3.7, 0, 0}, {0, 0, 0}, 0.2, 1e-3));
+    w.add_body(ball({-3.0, 0, 0}, {-1, 0, 0}, 0.4, 1e9));
+    std::uint64_t most_in_a_step = 0;
+    for (int i = 0; i < 60 && w.collisions().capped_steps == 0; ++i) {
+        std::uint64_t const before = w.collisions().events;
+        w.step(1.0 / 60.0);
+        most_in_a_step = std::max(most_in_a_step, w.collisions().events - before);
+    }
+    EXPECT_GT(w.collisions().capped_steps, 0U);
+    EXPECT_LE(most_in_a_step, 2 * s.collisions.max_events_per_body);
+    for (auto const& x : w.bodies().positions())
+        EXPECT_TRUE(x.allFinite());
+    EXPECT_GE(w.bodies().positions()[0].x(), -4.0 + 0.2 - 1e-12); // not inside the wall
 }
 
 TEST(Obstacles, BallBouncesOffARotatedBox)

@@ -384,7 +384,7 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     scene const s = parse_scene(R"({
       "dt": 0.01,
       "collisions": {"mode": "continuous", "broadphase": "sweep_and_prune", "restitution": 0.5,
-                     "rest_speed": 0.02, "max_events_per_step": 99},
+                     "rest_speed": 0.02, "max_events_per_step": 99, "max_events_per_body": 7},
       "box": {"min": [-1, -2, 0], "max": [1, 2, 3], "damping": 0.25, "friction": 0.5},
       "walls": [{"normal": [0, 0, 2], "offset": 4, "damping": 0.1}],
       "obstacles": [
@@ -398,6 +398,7 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     EXPECT_EQ(w.settings().collisions.restitution, 0.5);
     EXPECT_EQ(w.settings().collisions.rest_speed, 0.02);
     EXPECT_EQ(w.settings().collisions.max_events_per_step, 99U);
+    EXPECT_EQ(w.settings().collisions.max_events_per_body, 7U);
     ASSERT_EQ(w.walls().size(), 7U);
     // the explicit wall, normalised: 2z = 4 is z = 2
     EXPECT_EQ(w.walls()[0].surface.normal, physics::vec3(0, 0, 1));
