@@ -1,12 +1,7 @@
 #pragma once
 
-// One HTTP GET on a fresh connection to 127.0.0.1, for the server tests.
-
-#include <boost/asio/connect.hpp>
-#include <boost/asio/io_context.hpp>
-#include <boost/asio/ip/tcp.hpp>
-#include <boost/beast/core.hpp>
-#include <boost/beast/http.hpp>
+// One HTTP request on a fresh connection to 127.0.0.1, for the server tests (compiled once,
+// in kugel_test_support, like ws_client).
 
 #include <cstdint>
 #include <string>
@@ -20,22 +15,12 @@ struct http_reply
     std::string body;
 };
 
-inline http_reply http_get(std::uint16_t port, std::string const& target)
-{
-    namespace beast = boost::beast;
-    namespace http = beast::http;
-    boost::asio::io_context io;
-    boost::asio::ip::tcp::socket socket(io);
-    boost::asio::ip::tcp::resolver resolver(io);
-    boost::asio::connect(socket, resolver.resolve("127.0.0.1", std::to_string(port)));
-    http::request<http::empty_body> request{http::verb::get, target, 11};
-    request.set(http::field::host, "127.0.0.1");
-    request.keep_alive(false);
-    http::write(socket, request);
-    beast::flat_buffer buffer;
-    http::response<http::string_body> response;
-    http::read(socket, buffer, response);
-    return {response.result_int(), std::string(response[http::field::content_type]), response.body()};
-}
+/// GET `target`; the reply's status, content type and body.
+http_reply http_get(std::uint16_t port, std::string const& target);
+
+/// A WebSocket upgrade request on a fresh connection, with `origin` as its Origin header
+/// (none when empty) and `host` as its Host; the answer's status (101: accepted) and body.
+http_reply websocket_upgrade(std::uint16_t port, std::string const& target,
+                             std::string const& origin, std::string const& host);
 
 } // namespace kugel::test_support
