@@ -307,7 +307,7 @@ connection_options load_connection_options(std::size_t number)
 {
     connection_options o;
     o.name = "kugel-client load " + std::to_string(number);
-    o.snapshot_queue = 1; // counted on the I/O thread; nobody takes them
+    o.snapshot_ticks_only = true; // counted on the I/O thread; nobody takes them
     o.kept_replies = 64;  // only spawn answers and the last command's are looked at, at once
     return o;
 }
