@@ -4,6 +4,7 @@
 #include "url.hpp"
 
 #include <algorithm>
+#include <charconv>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
@@ -14,6 +15,8 @@
 #include <condition_variable>
 #include <deque>
 #include <mutex>
+#include <optional>
+#include <string_view>
 #include <thread>
 #include <unordered_map>
 
@@ -125,6 +128,14 @@ public:
     /// Decodes one message (outside the lock: a snapshot may be large) and hands it over.
     void handle_message(std::string const& text)
     {
+        if (options_.snapshot_ticks_only)
+            if (auto const tick = snapshot_tick(text)) {
+                std::lock_guard lock(mutex_);
+                ++stats_.messages_received;
+                stats_.bytes_received += text.size();
+                count_snapshot(*tick);
+                return;
+            }
         auto decoded = protocol::decode_server_message(text);
         auto const now = clock::now();
         std::lock_guard lock(mutex_);
@@ -155,13 +166,33 @@ public:
         stats_.opened = now;
     }
 
-    void take(protocol::snapshot snapshot, clock::time_point)
+    /// The tick of a snapshot's text, found by a search rather than a parse (the server writes
+    /// `{"type":"snapshot","tick":N,...`); nullopt for any other message, or text of
+    /// another shape, which is then decoded as usual.
+    static std::optional<std::uint64_t> snapshot_tick(std::string_view text)
     {
-        auto shared = std::make_shared<protocol::snapshot const>(std::move(snapshot));
+        constexpr std::string_view head = R"({"type":"snapshot",)";
+        constexpr std::string_view key = R"("tick":)";
+        if (!text.starts_with(head))
+            return std::nullopt;
+        auto const at = text.find(key, head.size());
+        if (at == std::string_view::npos)
+            return std::nullopt;
+        std::uint64_t tick = 0;
+        char const* first = text.data() + at + key.size();
+        auto const [end, ec] = std::from_chars(first, text.data() + text.size(), tick);
+        if (ec != std::errc{} || end == first)
+            return std::nullopt;
+        return tick;
+    }
+
+    /// A snapshot's tick into the counts: gaps, late ones.
+    void count_snapshot(std::uint64_t tick)
+    {
         if (stats_.snapshots == 0) {
-            stats_.first_tick = shared->tick;
-        } else if (shared->tick > stats_.last_tick) {
-            std::uint64_t const gap = shared->tick - stats_.last_tick;
+            stats_.first_tick = tick;
+        } else if (tick > stats_.last_tick) {
+            std::uint64_t const gap = tick - stats_.last_tick;
             stats_.tick_gap_min = stats_.tick_gaps == 0 ? gap : std::min(stats_.tick_gap_min, gap);
             stats_.tick_gap_max = std::max(stats_.tick_gap_max, gap);
             ++stats_.tick_gaps;
@@ -169,7 +200,13 @@ public:
                 ++stats_.late_snapshots;
         }
         ++stats_.snapshots;
-        stats_.last_tick = shared->tick;
+        stats_.last_tick = tick;
+    }
+
+    void take(protocol::snapshot snapshot, clock::time_point)
+    {
+        auto shared = std::make_shared<protocol::snapshot const>(std::move(snapshot));
+        count_snapshot(shared->tick);
         if (snapshots_.size() >= std::max<std::size_t>(options_.snapshot_queue, 1)) {
             snapshots_.pop_front();
             ++stats_.snapshots_dropped;

@@ -54,6 +54,12 @@ struct connection_options
     /// Answers that match none of this connection's refs (to send_text, mostly) kept for
     /// next_unmatched_reply; beyond it the oldest go.
     std::size_t kept_unmatched_replies = 256;
+    /// Snapshots are only counted (stats: snapshots, ticks, gaps): the tick is found in the
+    /// text by a search and the snapshot is neither decoded nor kept, so next_snapshot,
+    /// wait_for_snapshot and on_snapshot get none. For load generators, whose clients
+    /// would otherwise spend more on decoding a large snapshot than the server spends on
+    /// encoding it once for all of them.
+    bool snapshot_ticks_only = false;
     /// When set, called with every snapshot it can keep up with, on a thread of its own
     /// (never the I/O thread): a newer snapshot replaces one it has not reached yet. It may
     /// call the connection, but must not destroy it.

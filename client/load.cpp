@@ -1,8 +1,13 @@
 #include "load.hpp"
 
+#include "stalled_connection.hpp"
+
+#include <sys/resource.h>
+
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <future>
 #include <memory>
 #include <random>
 #include <stdexcept>
@@ -27,16 +32,36 @@ public:
     {
         take_spawn_answer();
         if (spawn_ref_) {
-            link_.send(protocol::ping{});
+            last_ref_ = link_.send(protocol::ping{});
         } else if (!body_) {
             spawn_ref_ = link_.send(spawn());
+            last_ref_ = spawn_ref_;
             pushes_ = 0;
         } else if (pushes_ < pushes_per_body) {
             ++pushes_;
-            link_.send(protocol::impulse{0, *body_, direction(0.01)});
+            last_ref_ = link_.send(protocol::impulse{0, *body_, direction(0.01)});
         } else {
-            link_.send(protocol::remove{0, *std::exchange(body_, std::nullopt)});
+            last_ref_ = link_.send(protocol::remove{0, *std::exchange(body_, std::nullopt)});
         }
+    }
+
+    /// Getting ready to leave, called until it returns true: once its spawn is answered it
+    /// removes the body it holds, and it is ready when the last command it sent is answered
+    /// (a room applies a client's commands in order, and skips those of a client that has
+    /// gone, so closing earlier could leave a body behind).
+    bool leave()
+    {
+        take_spawn_answer();
+        if (spawn_ref_)
+            return false;
+        if (body_)
+            last_ref_ = link_.send(protocol::remove{0, *std::exchange(body_, std::nullopt)});
+        if (last_ref_) {
+            if (!link_.await_reply(*last_ref_, std::chrono::milliseconds(0)))
+                return false;
+            last_ref_.reset();
+        }
+        return true;
     }
 
     /// Removes the body it holds, if any, so that a load leaves the room as it found it.
@@ -95,6 +120,7 @@ private:
     std::mt19937_64 random_;
     std::optional<std::uint64_t> spawn_ref_; ///< a spawn not yet answered
     std::optional<std::uint64_t> body_;      ///< the body it spawned and pushes
+    std::optional<std::uint64_t> last_ref_;  ///< the last command sent, until leave() saw its answer
     int pushes_ = 0;
 };
 
@@ -109,6 +135,33 @@ void check(load_options const& o)
     if (!(o.commands_per_second >= 0.0 && o.commands_per_second <= max_commands_per_second))
         throw std::invalid_argument("commands per second must be from 0 to " +
                                     std::to_string(static_cast<int>(max_commands_per_second)));
+    if (!(o.reconnects_per_second >= 0.0 && o.reconnects_per_second <= max_reconnects_per_second))
+        throw std::invalid_argument("reconnects per second must be from 0 to " +
+                                    std::to_string(static_cast<int>(max_reconnects_per_second)));
+    if (o.stalled > max_stalled_clients)
+        throw std::invalid_argument("stalled clients must be at most " +
+                                    std::to_string(max_stalled_clients));
+}
+
+/// Raises the soft limit on open files to what the clients need, as far as the hard limit
+/// allows; throws std::invalid_argument naming the figure when that is not enough.
+void ensure_file_descriptors(load_options const& o)
+{
+    // Reconnects overlap a little: the old connection closes while the new one opens.
+    rlim_t const needed =
+        static_cast<rlim_t>((o.clients + o.stalled) * file_descriptors_per_client + 64);
+    rlimit limit{};
+    if (getrlimit(RLIMIT_NOFILE, &limit) != 0 || limit.rlim_cur >= needed)
+        return;
+    if (limit.rlim_max == RLIM_INFINITY || limit.rlim_max >= needed) {
+        limit.rlim_cur = needed;
+        if (setrlimit(RLIMIT_NOFILE, &limit) == 0)
+            return;
+    }
+    throw std::invalid_argument(std::to_string(o.clients + o.stalled) + " clients need about " +
+                                std::to_string(needed) + " open files, and the limit is " +
+                                std::to_string(limit.rlim_max) + ": raise it (ulimit -n " +
+                                std::to_string(needed) + ", as root or in limits.conf)");
 }
 
 bool stop_requested(load_options const& o)
@@ -142,34 +195,40 @@ std::string describe(close_info const& info)
     return text;
 }
 
-/// The counters of every client added up (tick gaps: the extremes).
+/// Adds one connection's counters to a total (tick gaps: the extremes).
+void add(connection_stats& total, connection_stats const& s)
+{
+    total.messages_received += s.messages_received;
+    total.messages_sent += s.messages_sent;
+    total.snapshots += s.snapshots;
+    total.snapshots_dropped += s.snapshots_dropped;
+    total.bytes_received += s.bytes_received;
+    total.bytes_sent += s.bytes_sent;
+    total.commands_sent += s.commands_sent;
+    total.acks += s.acks;
+    total.pongs += s.pongs;
+    total.late_snapshots += s.late_snapshots;
+    total.ignored += s.ignored;
+    total.undecodable += s.undecodable;
+    for (auto const& [code, count] : s.errors)
+        total.errors[code] += count;
+    total.ack_latency.merge(s.ack_latency);
+    total.pong_latency.merge(s.pong_latency);
+    if (s.tick_gaps > 0) {
+        total.tick_gap_min =
+            total.tick_gaps == 0 ? s.tick_gap_min : std::min(total.tick_gap_min, s.tick_gap_min);
+        total.tick_gap_max = std::max(total.tick_gap_max, s.tick_gap_max);
+        total.tick_gaps += s.tick_gaps;
+    }
+}
+
+/// The counters of every client added up.
 connection_stats total_of(load_report const& report)
 {
     connection_stats total;
-    bool first = true;
-    for (auto const& c : report.clients) {
-        if (!c.connected())
-            continue;
-        auto const& s = c.stats;
-        total.snapshots += s.snapshots;
-        total.bytes_received += s.bytes_received;
-        total.bytes_sent += s.bytes_sent;
-        total.commands_sent += s.commands_sent;
-        total.acks += s.acks;
-        total.pongs += s.pongs;
-        total.late_snapshots += s.late_snapshots;
-        for (auto const& [code, count] : s.errors)
-            total.errors[code] += count;
-        total.ack_latency.merge(s.ack_latency);
-        total.pong_latency.merge(s.pong_latency);
-        if (s.tick_gaps > 0) {
-            total.tick_gap_min =
-                first ? s.tick_gap_min : std::min(total.tick_gap_min, s.tick_gap_min);
-            total.tick_gap_max = std::max(total.tick_gap_max, s.tick_gap_max);
-            total.tick_gaps += s.tick_gaps;
-            first = false;
-        }
-    }
+    for (auto const& c : report.clients)
+        if (c.connected())
+            add(total, c.stats);
     return total;
 }
 
@@ -209,115 +268,275 @@ double load_client_report::snapshots_per_second() const
     return per_second(stats.snapshots, seconds);
 }
 
+std::size_t load_report::connections() const
+{
+    std::size_t n = 0;
+    for (auto const& c : clients)
+        n += c.connections;
+    return n;
+}
+
+std::size_t load_report::silent_connections() const
+{
+    std::size_t n = 0;
+    for (auto const& c : clients)
+        n += c.silent_connections;
+    return n;
+}
+
 bool load_report::ok() const
 {
     return std::all_of(clients.begin(), clients.end(), [](load_client_report const& c) {
-        return c.connected() && !c.disconnected;
+        return c.connected() && !c.disconnected && c.silent_connections == 0;
     });
 }
+
+namespace {
+
+/// One client of a load: its connection, its traffic and what it has seen.
+struct load_client
+{
+    std::unique_ptr<connection> link;
+    std::unique_ptr<traffic> sender;
+    clock::time_point next_send = clock::time_point::max();
+    std::optional<clock::time_point> leaving_until; ///< churn: leaving, closed by then at the latest
+    std::size_t reconnects = 0;
+};
+
+connection_options load_connection_options(std::size_t number)
+{
+    connection_options o;
+    o.name = "kugel-client load " + std::to_string(number);
+    o.snapshot_ticks_only = true; // counted on the I/O thread; nobody takes them
+    o.kept_replies = 64;  // only spawn answers and the last command's are looked at, at once
+    return o;
+}
+
+/// Files what a connection saw into its client's report, before it is closed (so that the
+/// close is not taken for a disconnect).
+void take_stats(load_client_report& r, connection const& link)
+{
+    connection_stats const s = link.stats();
+    add(r.stats, s);
+    if (s.snapshots == 0)
+        ++r.silent_connections;
+    if (!r.disconnected)
+        r.disconnected = link.closed_with(); // it ended by itself: we have not closed it yet
+}
+
+} // namespace
 
 load_report run_load(load_options options)
 {
     check(options);
+    ensure_file_descriptors(options);
     load_report report;
     report.options = options;
+    std::size_t const n = options.clients;
 
     // Connect every client (one at a time: each waits for its welcome).
-    std::vector<std::unique_ptr<connection>> links(options.clients);
-    report.clients.resize(options.clients);
-    for (std::size_t i = 0; i < options.clients && !stop_requested(options); ++i) {
+    std::vector<load_client> clients(n);
+    report.clients.resize(n);
+    for (std::size_t i = 0; i < n && !stop_requested(options); ++i) {
         auto& r = report.clients[i];
         r.number = i + 1;
-        connection_options o;
-        o.name = "kugel-client load " + std::to_string(i + 1);
-        o.snapshot_queue = 1; // counted on the I/O thread; nobody takes them
-        o.kept_replies = 64;  // only spawn answers are looked at, at once
         try {
-            links[i] = std::make_unique<connection>(options.url, std::move(o));
-            r.client_id = links[i]->welcome().client;
+            clients[i].link = std::make_unique<connection>(options.url, load_connection_options(i + 1));
+            r.client_id = clients[i].link->welcome().client;
+            r.stats.opened = clients[i].link->stats().opened;
+            r.connections = 1;
             if (report.tick_rate == 0.0) {
-                report.tick_rate = links[i]->welcome().tick_rate;
-                report.snapshot_rate = links[i]->welcome().snapshot_rate;
+                report.tick_rate = clients[i].link->welcome().tick_rate;
+                report.snapshot_rate = clients[i].link->welcome().snapshot_rate;
             }
         } catch (connection_error const& e) {
             r.connect_error = e.what();
         }
     }
-
-    for (std::size_t i = 0; i < options.clients; ++i)
-        if (!links[i] && report.clients[i].connect_error.empty()) {
+    for (std::size_t i = 0; i < n; ++i)
+        if (!clients[i].link && report.clients[i].connect_error.empty()) {
             report.clients[i].number = i + 1;
             report.clients[i].connect_error = "stopped before it connected";
         }
 
-    // Run: send at the given rate, client after client, staggered over one period.
+    // The stalled connections: a welcome each, then nothing is read.
+    std::vector<std::unique_ptr<stalled_connection>> stalled(options.stalled);
+    report.stalled.resize(options.stalled);
+    for (std::size_t k = 0; k < options.stalled && !stop_requested(options); ++k) {
+        try {
+            stalled[k] = std::make_unique<stalled_connection>(options.url, std::chrono::seconds(10));
+            report.stalled[k].client_id = stalled[k]->client_id();
+        } catch (connection_error const& e) {
+            report.stalled[k].connect_error = e.what();
+        }
+    }
+
+    // Run: send at the given rate, client after client, staggered over one period; churn
+    // at its rate, clients in turn.
     auto const started = clock::now();
     auto const end = started + std::chrono::duration_cast<clock::duration>(
                                    std::chrono::duration<double>(options.duration));
-    std::vector<std::unique_ptr<traffic>> senders(options.clients);
-    std::vector<clock::time_point> next_send(options.clients, clock::time_point::max());
+    auto const period_of = [](double rate) {
+        return rate > 0.0 ? std::chrono::duration_cast<clock::duration>(
+                                std::chrono::duration<double>(1.0 / rate))
+                          : clock::duration::max();
+    };
     bool const sending = options.commands_per_second > 0.0;
-    auto const period = sending
-                            ? std::chrono::duration_cast<clock::duration>(
-                                  std::chrono::duration<double>(1.0 / options.commands_per_second))
-                            : clock::duration::max();
-    for (std::size_t i = 0; i < options.clients && sending; ++i) {
-        if (!links[i])
-            continue;
-        senders[i] = std::make_unique<traffic>(*links[i], options.seed + i);
-        next_send[i] = started + period * static_cast<long>(i) / static_cast<long>(options.clients);
-    }
-    for (;;) {
-        auto const due = std::min_element(next_send.begin(), next_send.end());
-        // Wake at least every 50 ms to notice a stop request.
-        auto const wake = std::min({*due, end, clock::now() + std::chrono::milliseconds(50)});
-        std::this_thread::sleep_until(wake);
-        if (clock::now() >= end || stop_requested(options))
-            break;
-        if (*due > clock::now())
-            continue;
-        auto const i = static_cast<std::size_t>(due - next_send.begin());
+    auto const period = period_of(options.commands_per_second);
+    auto const start_sending = [&](std::size_t i, clock::time_point first) {
+        auto& c = clients[i];
+        if (!sending || !c.link)
+            return;
+        c.sender = std::make_unique<traffic>(*c.link, options.seed + i + n * c.reconnects);
+        c.next_send = first;
+    };
+    for (std::size_t i = 0; i < n && sending; ++i)
+        start_sending(i, started + period * static_cast<long>(i) / static_cast<long>(n));
+
+    bool const churning = options.reconnects_per_second > 0.0;
+    auto const churn_period = period_of(options.reconnects_per_second);
+    auto next_churn = churning ? started + churn_period : clock::time_point::max();
+    std::size_t churn_cursor = 0;
+    std::vector<std::size_t> leaving;        // clients getting ready to reconnect
+    std::vector<std::future<void>> closing; // connections closing off this thread
+    constexpr auto leave_patience = std::chrono::seconds(2);
+
+    // Churn, first half: the next client (in turn) whose connection has had a snapshot
+    // stops sending and gets ready to leave.
+    auto const begin_leaving = [&] {
+        for (std::size_t k = 0; k < n; ++k) {
+            std::size_t const i = (churn_cursor + k) % n;
+            auto& c = clients[i];
+            if (!c.link || !c.link->is_open() || c.leaving_until || c.link->stats().snapshots == 0)
+                continue;
+            c.leaving_until = clock::now() + leave_patience;
+            c.next_send = clock::time_point::max();
+            leaving.push_back(i);
+            churn_cursor = i + 1;
+            return;
+        }
+    };
+    // Second half: once ready (or out of patience), closed off this thread and connected
+    // again.
+    auto const finish_leaving = [&](std::size_t i) {
+        auto& c = clients[i];
+        auto& r = report.clients[i];
+        take_stats(r, *c.link);
+        c.sender.reset();
+        closing.push_back(std::async(std::launch::async, [link = std::move(c.link)]() mutable {
+            link->close();
+            link.reset();
+        }));
+        c.leaving_until.reset();
+        ++c.reconnects;
         try {
-            if (links[i]->is_open())
-                senders[i]->send_next();
+            c.link = std::make_unique<connection>(options.url, load_connection_options(i + 1));
+            r.client_id = c.link->welcome().client;
+            ++r.connections;
+            if (sending)
+                start_sending(i, clock::now() + period);
+        } catch (connection_error const& e) {
+            if (!r.disconnected)
+                r.disconnected = close_info{0, std::string("reconnect failed: ") + e.what(), true};
+        }
+        std::erase_if(closing, [](std::future<void>& f) {
+            return f.wait_for(std::chrono::seconds(0)) == std::future_status::ready;
+        });
+    };
+
+    for (;;) {
+        auto const due = std::min_element(clients.begin(), clients.end(), [](auto const& a, auto const& b) {
+            return a.next_send < b.next_send;
+        });
+        auto const next_due = due == clients.end() ? clock::time_point::max() : due->next_send;
+        // Wake at least every 50 ms to notice a stop request, and every 10 ms while
+        // clients are leaving.
+        auto const nap = leaving.empty() ? std::chrono::milliseconds(50) : std::chrono::milliseconds(10);
+        auto const wake = std::min({next_due, next_churn, end, clock::now() + nap});
+        std::this_thread::sleep_until(wake);
+        auto const now = clock::now();
+        if (now >= end || stop_requested(options))
+            break;
+        if (next_churn <= now) {
+            begin_leaving();
+            next_churn = std::max(next_churn + churn_period, now - churn_period);
+        }
+        std::erase_if(leaving, [&](std::size_t i) {
+            bool ready = true;
+            try {
+                ready = !clients[i].sender || !clients[i].link->is_open() || clients[i].sender->leave();
+            } catch (connection_error const&) {
+            }
+            if (!ready && clock::now() < *clients[i].leaving_until)
+                return false;
+            finish_leaving(i);
+            return true;
+        });
+        if (next_due > now)
+            continue;
+        auto& c = *due;
+        try {
+            if (c.link && c.link->is_open())
+                c.sender->send_next();
         } catch (connection_error const&) {
             // Ended, or not writing: its report says so; the others go on.
         }
         // Behind by more than a period (a slow machine)? Skip ahead rather than burst.
-        next_send[i] = std::max(next_send[i] + period, clock::now() - period);
+        c.next_send = std::max(c.next_send + period, clock::now() - period);
     }
     auto const finished = clock::now();
     report.stopped_early = finished < end;
     report.seconds = std::chrono::duration<double>(finished - started).count();
 
+    // A connection made late in the run may not have had its first snapshot yet: give each
+    // up to 10 s more (the room sends one every 1/snapshot_rate s; a client that gets none
+    // in that time is not being served).
+    auto const patience = clock::now() + std::chrono::seconds(10);
+    for (auto& c : clients)
+        while (c.link && c.link->is_open() && c.link->stats().snapshots == 0 &&
+               clock::now() < patience && !stop_requested(options))
+            std::this_thread::sleep_for(std::chrono::milliseconds(10));
+
     // Count before closing, so that the close is not taken for a disconnect.
-    for (std::size_t i = 0; i < options.clients; ++i) {
-        if (!links[i])
-            continue;
+    for (std::size_t i = 0; i < n; ++i) {
         auto& r = report.clients[i];
-        r.stats = links[i]->stats();
-        r.seconds = std::chrono::duration<double>(finished - r.stats.opened).count();
-        r.disconnected = links[i]->closed_with();
+        if (clients[i].link)
+            take_stats(r, *clients[i].link);
+        if (r.connections > 0)
+            r.seconds = std::chrono::duration<double>(finished - r.stats.opened).count();
+    }
+    // Was each stalled connection dropped? Read them all at once, up to 5 s.
+    {
+        std::vector<std::future<bool>> verdicts;
+        for (auto& link : stalled)
+            verdicts.push_back(std::async(std::launch::async, [&link] {
+                return link && link->dropped(std::chrono::seconds(5));
+            }));
+        for (std::size_t k = 0; k < stalled.size(); ++k)
+            report.stalled[k].dropped = verdicts[k].get();
     }
     // Remove the bodies still held (waiting a little for the answers, so that the removes
     // are applied before the connections close), then close.
     std::vector<std::pair<std::size_t, std::uint64_t>> removes;
-    for (std::size_t i = 0; i < options.clients; ++i) {
-        if (!senders[i] || !links[i]->is_open())
+    for (std::size_t i = 0; i < n; ++i) {
+        auto& c = clients[i];
+        if (!c.sender || !c.link || !c.link->is_open())
             continue;
         try {
-            if (auto const ref = senders[i]->remove_body())
+            if (auto const ref = c.sender->remove_body())
                 removes.emplace_back(i, *ref);
         } catch (connection_error const&) {
         }
     }
-    auto const patience = clock::now() + std::chrono::seconds(1);
+    auto const answer_patience = clock::now() + std::chrono::seconds(1);
     for (auto const& [i, ref] : removes)
-        links[i]->await_reply(ref, std::chrono::duration_cast<std::chrono::milliseconds>(
-                                       std::max(clock::duration::zero(), patience - clock::now())));
-    for (auto& link : links)
-        if (link)
-            link->close();
+        clients[i].link->await_reply(ref, std::chrono::duration_cast<std::chrono::milliseconds>(std::max(
+                                              clock::duration::zero(), answer_patience - clock::now())));
+    for (auto& c : clients)
+        if (c.link)
+            c.link->close();
+    for (auto& f : closing)
+        f.wait();
     return report;
 }
 
@@ -335,6 +554,8 @@ void print_report(load_report const& report, std::ostream& out)
     else
         print("load: %zu clients for %.1f s on %s, watching only\n", o.clients, report.seconds,
               o.url.c_str());
+    if (o.reconnects_per_second > 0.0)
+        print("churn: %g reconnects/s over all clients\n", o.reconnects_per_second);
     if (report.tick_rate > 0.0)
         print("server: %g ticks/s, %g snapshots/s\n", report.tick_rate, report.snapshot_rate);
     if (report.stopped_early)
@@ -383,6 +604,20 @@ void print_report(load_report const& report, std::ostream& out)
         std::to_string(dropped) + " of " + std::to_string(connected));
     for (auto const& [code, count] : total.errors)
         print("errors %s: %llu\n", code.c_str(), static_cast<unsigned long long>(count));
+    print("connections: %zu opened (%zu reconnects), %zu without a snapshot\n",
+          report.connections(), report.connections() - connected, report.silent_connections());
+    for (auto const& c : report.clients)
+        if (c.silent_connections > 0)
+            print("client %zu: %zu connections without a snapshot\n", c.number, c.silent_connections);
+    if (!report.stalled.empty()) {
+        std::size_t const dropped_stalled = static_cast<std::size_t>(
+            std::count_if(report.stalled.begin(), report.stalled.end(), [](auto const& c) { return c.dropped; }));
+        print("stalled: %zu connections that stopped reading after their welcome, %zu dropped by the server\n",
+              report.stalled.size(), dropped_stalled);
+        for (auto const& c : report.stalled)
+            if (!c.connected())
+                print("stalled: not connected: %s\n", c.connect_error.c_str());
+    }
     if (total.pong_latency.count() > 0)
         print(
             "pong ms p50/p99/max: %.1f/%.1f/%.1f (%llu pings, sent while a spawn was unanswered)\n",
@@ -403,13 +638,28 @@ json report_json(load_report const& report)
             entry.update(stats_json(c.stats, c.seconds));
             entry["disconnected"] =
                 c.disconnected ? json(describe(*c.disconnected)) : json(nullptr);
+            entry["connections"] = c.connections;
+            entry["silent_connections"] = c.silent_connections;
         }
         clients.push_back(std::move(entry));
+    }
+    json stalled = json::array();
+    for (auto const& c : report.stalled) {
+        json entry = {{"connected", c.connected()}, {"dropped", c.dropped}};
+        if (c.connected())
+            entry["id"] = c.client_id;
+        else
+            entry["connect_error"] = c.connect_error;
+        stalled.push_back(std::move(entry));
     }
     return {{"url", report.options.url},
             {"clients", report.options.clients},
             {"duration", report.options.duration},
             {"commands_per_second", report.options.commands_per_second},
+            {"reconnects_per_second", report.options.reconnects_per_second},
+            {"connections", report.connections()},
+            {"silent_connections", report.silent_connections()},
+            {"stalled", std::move(stalled)},
             {"seconds", report.seconds},
             {"stopped_early", report.stopped_early},
             {"tick_rate", report.tick_rate},

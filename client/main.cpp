@@ -174,6 +174,18 @@ int main(int argc, char** argv)
                      "server refuses more than its limit (welcome.limits) with rate_limited")
         ->check(CLI::Range(0.0, max_commands_per_second))
         ->capture_default_str();
+    load_command
+        ->add_option("--reconnects-per-second", load_opts.reconnects_per_second,
+                     "Churn: connections closed and opened again per second over all clients, "
+                     "clients in turn (each once it has had a snapshot; its body removed first)")
+        ->check(CLI::Range(0.0, max_reconnects_per_second))
+        ->capture_default_str();
+    load_command
+        ->add_option("--stalled", load_opts.stalled,
+                     "Extra connections that stop reading after their welcome (a hung client); "
+                     "the report says whether the server dropped them")
+        ->check(CLI::Range(std::size_t{0}, max_stalled_clients))
+        ->capture_default_str();
     load_command->add_option("--seed", load_opts.seed, "Seed for where spawns go and impulses push")
         ->capture_default_str();
     load_command->add_flag("--json", load_json, "Print the report as JSON");

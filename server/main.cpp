@@ -150,6 +150,12 @@ int main(int argc, char** argv)
                    "Largest inbound WebSocket frame; a larger one closes the connection (1009)")
         ->check(CLI::Range(std::size_t{256}, std::size_t{64} << 20))
         ->capture_default_str();
+    double write_stall = 5.0;
+    app.add_option("--write-stall", write_stall,
+                   "Seconds a send to a client may stay pending before that client, which has\n"
+                   "stopped reading, is disconnected (the others never wait for it)")
+        ->check(CLI::Range(0.05, 3600.0))
+        ->capture_default_str();
     app.add_option("--threads", options.threads, "Network and room threads (0: one per core)")
         ->capture_default_str();
     std::string state_dir;
@@ -184,6 +190,8 @@ int main(int argc, char** argv)
         options.state_dir = state_dir;
         options.checkpoint_interval = std::chrono::duration_cast<std::chrono::milliseconds>(
             std::chrono::duration<double>(checkpoint_interval));
+        options.client.write_stall = std::chrono::duration_cast<std::chrono::milliseconds>(
+            std::chrono::duration<double>(write_stall));
         options.client.commands_per_second = static_cast<double>(commands_per_second);
         options.client.command_burst = options.client.commands_per_second;
         return serve(options);

@@ -2,6 +2,7 @@
 
 #include "room.hpp"
 
+#include <algorithm>
 #include <array>
 #include <charconv>
 #include <cmath>
@@ -60,6 +61,34 @@ tick_histogram::reading tick_histogram::read() const
     }
     r.sum = static_cast<double>(sum_ns_.load(std::memory_order_relaxed)) * 1e-9;
     return r;
+}
+
+void tick_lateness::record(std::chrono::steady_clock::duration lateness,
+                           std::chrono::steady_clock::duration period)
+{
+    lateness = std::max(lateness, std::chrono::steady_clock::duration::zero());
+    histogram_.record(lateness);
+    if (lateness > period)
+        bump(behind_);
+    keep_max(lateness);
+}
+
+void tick_lateness::record_backlog(std::chrono::steady_clock::duration lateness)
+{
+    keep_max(lateness);
+}
+
+void tick_lateness::keep_max(std::chrono::steady_clock::duration lateness)
+{
+    // Only the room's strand writes: a plain load and store keep the largest.
+    auto const ns = std::chrono::duration_cast<std::chrono::nanoseconds>(lateness).count();
+    if (ns > max_ns_.load(std::memory_order_relaxed))
+        max_ns_.store(ns, std::memory_order_relaxed);
+}
+
+double tick_lateness::max_seconds() const
+{
+    return static_cast<double>(max_ns_.load(std::memory_order_relaxed)) * 1e-9;
 }
 
 void traffic_counters::count_rejected(protocol::error_code code)
@@ -133,18 +162,32 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
             m.sample(f.name, {{"room", r->name()}}, value_of(*r));
     };
 
-    m.begin({"kugel_tick_duration_seconds", "histogram",
-             "Wall-clock time a room's tick took: commands, physics step, snapshot encoding."});
-    for (auto const& r : rooms) {
-        tick_histogram::reading const h = r->tick_durations().read();
-        for (std::size_t i = 0; i < tick_histogram::upper_bounds.size(); ++i)
-            m.sample("kugel_tick_duration_seconds_bucket",
-                     {{"room", r->name()}, {"le", number_text(tick_histogram::upper_bounds[i])}},
-                     h.cumulative[i]);
-        m.sample("kugel_tick_duration_seconds_bucket", {{"room", r->name()}, {"le", "+Inf"}}, h.count());
-        m.sample("kugel_tick_duration_seconds_sum", {{"room", r->name()}}, h.sum);
-        m.sample("kugel_tick_duration_seconds_count", {{"room", r->name()}}, h.count());
-    }
+    auto const histogram = [&](metrics_text::family const& f, auto histogram_of) {
+        m.begin(f);
+        std::string const bucket = std::string(f.name) + "_bucket";
+        for (auto const& r : rooms) {
+            tick_histogram::reading const h = histogram_of(*r).read();
+            for (std::size_t i = 0; i < tick_histogram::upper_bounds.size(); ++i)
+                m.sample(bucket, {{"room", r->name()}, {"le", number_text(tick_histogram::upper_bounds[i])}},
+                         h.cumulative[i]);
+            m.sample(bucket, {{"room", r->name()}, {"le", "+Inf"}}, h.count());
+            m.sample(std::string(f.name) + "_sum", {{"room", r->name()}}, h.sum);
+            m.sample(std::string(f.name) + "_count", {{"room", r->name()}}, h.count());
+        }
+    };
+
+    histogram({"kugel_tick_duration_seconds", "histogram",
+               "Wall-clock time a room's tick took: commands, physics step, snapshot encoding."},
+              [](room const& r) -> tick_histogram const& { return r.tick_durations(); });
+    histogram({"kugel_tick_lateness_seconds", "histogram",
+               "How long after it was due a room's tick started (due: the previous tick's due time plus one period)."},
+              [](room const& r) -> tick_histogram const& { return r.lateness().histogram(); });
+    per_room({"kugel_tick_lateness_max_seconds", "gauge",
+              "The latest a room's tick has started after it was due, since the server started (dropped backlogs included)."},
+             [&](room const& r) { return r.lateness().max_seconds(); });
+    per_room({"kugel_ticks_behind_total", "counter",
+              "Ticks a room started more than one tick period after they were due."},
+             [&](room const& r) { return r.lateness().behind(); });
     per_room({"kugel_ticks_total", "counter", "Ticks a room has completed."},
              [&](room const& r) { return load(r.counters().ticks); });
     per_room({"kugel_late_ticks_total", "counter",
@@ -168,6 +211,9 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     per_room({"kugel_snapshots_dropped_total", "counter",
               "Snapshots replaced before they were sent, because a client read slower than they came."},
              [&](room const& r) { return load(r.traffic().snapshots_dropped); });
+    per_room({"kugel_stalled_clients_total", "counter",
+              "Clients disconnected because a send to them was pending longer than the write-stall bound (they stopped reading)."},
+             [&](room const& r) { return load(r.traffic().stalled_clients); });
     m.begin({"kugel_commands_rejected_total", "counter",
              "Messages refused with an error, by error code (protocol/PROTOCOL.md)."});
     for (auto const& r : rooms)

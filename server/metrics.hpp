@@ -16,8 +16,8 @@
 
 namespace kugel::server {
 
-/// Tick durations as a Prometheus histogram. Written on the room's strand, read by any
-/// thread: every field is an atomic counter, updated with relaxed ordering (a scrape may see
+/// Tick durations (a tick's cost, or how late it started) as a Prometheus histogram.
+/// Written on the room's strand, read by any thread: every field is an atomic counter, updated with relaxed ordering (a scrape may see
 /// one tick half recorded, which a monitoring system cannot tell from a tick a moment later).
 class tick_histogram
 {
@@ -41,6 +41,34 @@ private:
     std::atomic<std::uint64_t> sum_ns_{0};
 };
 
+/// How late a room's ticks start against their schedule (due = the previous due time plus
+/// one period): timer slack, busy threads, and the backlog of ticks that cost more than a
+/// period. A tick more than one period late has let the world fall a whole tick behind the
+/// clock. Written on the room's strand, read by any thread (relaxed atomics).
+class tick_lateness
+{
+public:
+    /// A tick that started `lateness` after it was due (negative counts as 0), at a tick
+    /// period of `period`.
+    void record(std::chrono::steady_clock::duration lateness, std::chrono::steady_clock::duration period);
+    /// Ticks not run at all (the room dropped a backlog `lateness` behind): the largest
+    /// lateness only; the dropped ticks are room_counters::late_ticks.
+    void record_backlog(std::chrono::steady_clock::duration lateness);
+
+    tick_histogram const& histogram() const { return histogram_; }
+    /// Ticks that started more than one period after they were due.
+    std::uint64_t behind() const { return behind_.load(std::memory_order_relaxed); }
+    /// The largest lateness seen, s.
+    double max_seconds() const;
+
+private:
+    void keep_max(std::chrono::steady_clock::duration lateness);
+
+    tick_histogram histogram_;
+    std::atomic<std::uint64_t> behind_{0};
+    std::atomic<std::int64_t> max_ns_{0};
+};
+
 /// What a room's sessions send and receive, for /metrics. Each session adds to its room's
 /// counters from its own strand (relaxed atomics: counts, not synchronisation).
 struct traffic_counters
@@ -50,6 +78,7 @@ struct traffic_counters
     std::atomic<std::uint64_t> snapshots_out{0};     ///< snapshots handed to a socket
     std::atomic<std::uint64_t> bytes_out{0};         ///< their payload bytes
     std::atomic<std::uint64_t> snapshots_dropped{0}; ///< replaced unsent in a slow client's slot
+    std::atomic<std::uint64_t> stalled_clients{0};   ///< disconnected: a send pending past write_stall
     std::array<std::atomic<std::uint64_t>, protocol::all_error_codes.size()> rejected{};
 
     void count_rejected(protocol::error_code code);

@@ -228,6 +228,7 @@ void room::on_tick(beast::error_code ec)
     if (ec || !running_)
         return;
     auto const started = clock::now();
+    lateness_.record(started - next_tick_at_, period_);    // against its due time
     apply_commands(std::exchange(pending_commands_, {})); // 1. in arrival order
     step_world();                                          // 2. physics
     std::size_t bytes = 0;
@@ -454,6 +455,7 @@ void room::schedule_next_tick()
     if (now - next_tick_at_ > max_behind * period_) {
         auto const dropped = static_cast<std::uint64_t>((now - next_tick_at_) / period_);
         counters_.late_ticks += dropped;
+        lateness_.record_backlog(now - next_tick_at_);
         if (now - last_late_warning_ > std::chrono::seconds(10)) {
             last_late_warning_ = now;
             spdlog::warn("room '{}': {} ticks late, dropped them (a tick costs more than {:.1f} ms)",

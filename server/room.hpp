@@ -66,6 +66,8 @@ public:
     traffic_counters& traffic() { return traffic_; }
     traffic_counters const& traffic() const { return traffic_; }
     tick_histogram const& tick_durations() const { return tick_durations_; }
+    /// How late the ticks started against their schedule.
+    tick_lateness const& lateness() const { return lateness_; }
 
     /// Starts ticking. The room keeps itself alive while it ticks.
     void start();
@@ -151,6 +153,7 @@ private:
     room_counters counters_;
     traffic_counters traffic_;
     tick_histogram tick_durations_;
+    tick_lateness lateness_;
     // For the periodic log line.
     clock::time_point report_started_;
     std::uint64_t report_ticks_ = 0;

@@ -217,8 +217,10 @@ void websocket_session::queue_snapshot(std::shared_ptr<std::string const> bytes)
 {
     if (closing_)
         return;
-    if (in_flight_ && clock::now() - write_started_ > limits_.write_stall)
+    if (in_flight_ && clock::now() - write_started_ > limits_.write_stall) {
+        bump(room_->traffic().stalled_clients);
         return drop_connection("not reading: a send has been pending too long");
+    }
     if (latest_snapshot_)
         bump(room_->traffic().snapshots_dropped);
     latest_snapshot_ = std::move(bytes); // a newer snapshot replaces an unsent one

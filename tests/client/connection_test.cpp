@@ -195,6 +195,24 @@ TEST(Connection, CountsWhatItSawOnTheIoThread)
     EXPECT_EQ(stats.undecodable, 0U);
 }
 
+TEST(Connection, CountingSnapshotTicksOnlyKeepsTheCountsAndNoSnapshots)
+{
+    running_server s;
+    connection_options options;
+    options.snapshot_ticks_only = true;
+    connection c(s.url(), options);
+    ASSERT_TRUE(c.await_reply(c.send(ball_at({1, 0, 0})), 10s)); // answers still decoded
+    while (c.stats().snapshots < 10)
+        std::this_thread::sleep_for(10ms);
+    connection_stats const stats = c.stats();
+    EXPECT_EQ(stats.tick_gap_min, 2U); // the ticks were read: 60 ticks/s, 30 snapshots/s
+    EXPECT_GE(stats.tick_gaps, 9U);
+    EXPECT_GT(stats.last_tick, stats.first_tick);
+    EXPECT_EQ(stats.acks, 1U);
+    EXPECT_EQ(stats.undecodable, 0U);
+    EXPECT_EQ(c.next_snapshot(100ms), nullptr); // counted, not kept
+}
+
 TEST(Connection, CloseIsCleanAndFinal)
 {
     running_server s;

@@ -3,7 +3,9 @@
 
 #include "client/load.hpp"
 #include "server.hpp"
+#include "support/http_get.hpp"
 #include "support/in_process_server.hpp"
+#include "support/scene_files.hpp"
 
 #include <filesystem>
 #include <gtest/gtest.h>
@@ -52,6 +54,81 @@ TEST(Load, EveryClientSeesSnapshotsAndGetsItsCommandsAnswered)
     s.stop();
 }
 
+/// The bodies in a room now, from /healthz.
+std::uint64_t bodies(test_support::in_process_server const& s, std::string const& room)
+{
+    auto const reply = test_support::http_get(s.port(), "/healthz");
+    return nlohmann::json::parse(reply.body).at("rooms").at(room).at("bodies").get<std::uint64_t>();
+}
+
+TEST(Load, ChurnReconnectsClientsInTurnAndEveryConnectionSeesSnapshots)
+{
+    server::server_options o;
+    o.rooms = {{"still", std::filesystem::path(KUGEL_SOURCE_DIR) / "client" / "examples" /
+                             "scenes" / "still.json"}};
+    test_support::in_process_server s(o);
+
+    load_options options;
+    options.url = s.url("still");
+    options.clients = 3;
+    options.duration = 3.0;
+    options.commands_per_second = 20.0;
+    options.reconnects_per_second = 3.0;
+    load_report const report = run_load(options);
+
+    EXPECT_TRUE(report.ok());
+    // Each reconnect waits for a snapshot and for its body's remove, so fewer than the
+    // nine the rate asks for may happen on a slow machine; but some do.
+    EXPECT_GT(report.connections(), 3U);
+    EXPECT_EQ(report.silent_connections(), 0U);
+    for (auto const& c : report.clients) {
+        EXPECT_GE(c.connections, 1U);
+        EXPECT_FALSE(c.disconnected) << "client " << c.number;
+        EXPECT_TRUE(c.stats.errors.empty()) << "client " << c.number;
+    }
+    // Every body a client spawned was removed before it left: the room is as it was.
+    EXPECT_EQ(bodies(s, "still"), 0U);
+
+    nlohmann::json const json = report_json(report);
+    EXPECT_EQ(json["connections"].get<std::size_t>(), report.connections());
+    EXPECT_EQ(json["silent_connections"].get<std::size_t>(), 0U);
+    s.stop();
+}
+
+TEST(Load, AStalledClientIsDroppedWhileTheOthersCarryOn)
+{
+    // Large snapshots (2,000 bodies) fill the stalled client's socket within a few.
+    nlohmann::json scene = test_support::still_scene();
+    scene["generators"] = nlohmann::json::array({{{"count", 2000},
+                                                  {"placement", "lattice"},
+                                                  {"radius", 0.05},
+                                                  {"mass", 1.0},
+                                                  {"max_speed", 0.0},
+                                                  {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
+    server::server_options o;
+    o.rooms = {{"crowded", test_support::write_scene(std::filesystem::path(testing::TempDir()) /
+                                                         "kugel_load_test_crowded.json",
+                                                     scene)}};
+    o.client.write_stall = std::chrono::milliseconds(500);
+    test_support::in_process_server s(o);
+
+    load_options options;
+    options.url = s.url("crowded");
+    options.clients = 2;
+    options.duration = 4.0;
+    options.stalled = 1;
+    load_report const report = run_load(options);
+
+    ASSERT_EQ(report.stalled.size(), 1U);
+    EXPECT_TRUE(report.stalled[0].connected()) << report.stalled[0].connect_error;
+    EXPECT_TRUE(report.stalled[0].dropped);
+    EXPECT_TRUE(report.ok()); // the others stayed, and saw snapshots
+    for (auto const& c : report.clients)
+        EXPECT_GT(c.stats.snapshots, 0U) << "client " << c.number;
+    EXPECT_TRUE(report_json(report)["stalled"][0]["dropped"].get<bool>());
+    s.stop();
+}
+
 TEST(Load, RefusesCountsAndTimesOutOfBounds)
 {
     load_options options;
@@ -65,6 +142,12 @@ TEST(Load, RefusesCountsAndTimesOutOfBounds)
     EXPECT_THROW(run_load(options), std::invalid_argument);
     options.duration = 1.0;
     options.commands_per_second = -1.0;
+    EXPECT_THROW(run_load(options), std::invalid_argument);
+    options.commands_per_second = 0.0;
+    options.reconnects_per_second = -1.0;
+    EXPECT_THROW(run_load(options), std::invalid_argument);
+    options.reconnects_per_second = 0.0;
+    options.stalled = max_stalled_clients + 1;
     EXPECT_THROW(run_load(options), std::invalid_argument);
 }
 

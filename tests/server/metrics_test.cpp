@@ -190,6 +190,38 @@ TEST(Metrics, CountersMoveByExactlyTheTrafficSent)
     }
     EXPECT_LE(previous, count);
     EXPECT_GT(after.at(R"(kugel_tick_duration_seconds_sum{room="lab"})"), 0);
+
+    // Every tick started is in the lateness histogram (recorded as it starts, so perhaps
+    // one more than completed, or one fewer when a tick falls between the two reads); the
+    // count of ticks behind and the largest lateness are there.
+    double const started = after.at(R"(kugel_tick_lateness_seconds_count{room="lab"})");
+    EXPECT_GE(started, ticks - 1);
+    EXPECT_LE(started, ticks + 1);
+    EXPECT_EQ(after.at(R"(kugel_tick_lateness_seconds_bucket{room="lab",le="+Inf"})"), started);
+    EXPECT_LE(after.at(R"(kugel_ticks_behind_total{room="lab"})"), started);
+    EXPECT_GE(after.at(R"(kugel_tick_lateness_max_seconds{room="lab"})"), 0);
+    EXPECT_EQ(after.at(R"(kugel_stalled_clients_total{room="lab"})"), 0);
+}
+
+TEST(Metrics, TickLatenessCountsTicksMoreThanOnePeriodLate)
+{
+    using std::chrono::milliseconds;
+    tick_lateness l;
+    milliseconds const period(16);
+    l.record(milliseconds(-1), period); // early by timer rounding: on time
+    l.record(milliseconds(3), period);
+    l.record(period, period);           // exactly one period: not behind
+    EXPECT_EQ(l.behind(), 0U);
+    l.record(milliseconds(17), period);
+    EXPECT_EQ(l.behind(), 1U);
+    EXPECT_DOUBLE_EQ(l.max_seconds(), 0.017);
+    l.record_backlog(milliseconds(90)); // a dropped backlog raises the largest, not the count
+    EXPECT_EQ(l.behind(), 1U);
+    EXPECT_DOUBLE_EQ(l.max_seconds(), 0.09);
+    tick_histogram::reading const h = l.histogram().read();
+    EXPECT_EQ(h.count(), 4U);
+    EXPECT_EQ(h.cumulative[0], 1U); // the early one, as 0
+    EXPECT_DOUBLE_EQ(h.sum, 0.036);
 }
 
 TEST(Metrics, ASlowClientsReplacedSnapshotsAreCountedAsDropped)
@@ -204,6 +236,24 @@ TEST(Metrics, ASlowClientsReplacedSnapshotsAreCountedAsDropped)
     while ((dropped = scrape(s.port()).at(series)) == 0 && std::chrono::steady_clock::now() < deadline)
         std::this_thread::sleep_for(std::chrono::milliseconds(50));
     EXPECT_GT(dropped, 0);
+}
+
+TEST(Metrics, AClientThatStopsReadingIsCountedWhenItIsDropped)
+{
+    server_options options = lab(2000); // snapshots of about 250 kB fill a socket fast
+    options.client.write_stall = std::chrono::milliseconds(500);
+    test_support::in_process_server s(options);
+    ws_client stalled(s.port(), "/ws/lab"); // never reads
+    std::string const series = R"(kugel_stalled_clients_total{room="lab"})";
+    auto const deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    double count = 0;
+    while ((count = scrape(s.port()).at(series)) == 0 && std::chrono::steady_clock::now() < deadline)
+        std::this_thread::sleep_for(std::chrono::milliseconds(50));
+    EXPECT_EQ(count, 1);
+    while (stalled.read(std::chrono::seconds(10))) {
+    }
+    EXPECT_TRUE(stalled.closed());
+    EXPECT_EQ(scrape(s.port()).at(series), 1);
 }
 
 TEST(Metrics, LabelValuesAreEscaped)
