@@ -23,12 +23,20 @@ class ws_client
 public:
     using clock = std::chrono::steady_clock;
 
-    /// Connects to 127.0.0.1:port and upgrades on `target`; throws on failure.
-    explicit ws_client(std::uint16_t port, std::string const& target = "/ws") : ws_(io_)
+    /// Connects to 127.0.0.1:port and upgrades on `target`, as a page of `origin` when one
+    /// is given (an Origin header, as a browser sends); throws on failure.
+    explicit ws_client(std::uint16_t port, std::string const& target = "/ws",
+                       std::string const& origin = {})
+        : ws_(io_)
     {
         namespace net = boost::asio;
         net::ip::tcp::resolver resolver(io_);
         net::connect(ws_.next_layer(), resolver.resolve("127.0.0.1", std::to_string(port)));
+        if (!origin.empty())
+            ws_.set_option(boost::beast::websocket::stream_base::decorator(
+                [origin](boost::beast::websocket::request_type& request) {
+                    request.set(boost::beast::http::field::origin, origin);
+                }));
         ws_.handshake("127.0.0.1:" + std::to_string(port), target);
         ws_.text(true);
     }
