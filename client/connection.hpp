@@ -21,7 +21,10 @@
 namespace kugel::client {
 
 /// A command: what the server answers with an ack (or pong) or an error carrying its ref.
-using command = std::variant<protocol::spawn, protocol::impulse, protocol::remove, protocol::ping>;
+/// The admin commands are answered `forbidden` unless the connection's hello made it an admin.
+using command = std::variant<protocol::spawn, protocol::impulse, protocol::remove, protocol::ping,
+                             protocol::pause, protocol::resume, protocol::reset,
+                             protocol::load_scene>;
 
 /// The server's answer to a command.
 using reply = std::variant<protocol::ack, protocol::error, protocol::pong>;

@@ -180,7 +180,7 @@ void spoken_protocol(int const& version, location const& at)
 constexpr auto fields(std::type_identity<hello>)
 {
     return std::tuple{member("protocol", &hello::protocol, spoken_protocol),
-                      member("name", &hello::name)};
+                      member("name", &hello::name), member("admin_token", &hello::admin_token)};
 }
 
 constexpr auto fields(std::type_identity<body_spec>)
@@ -214,6 +214,26 @@ constexpr auto fields(std::type_identity<ping>)
     return std::tuple{member("ref", &ping::ref)};
 }
 
+constexpr auto fields(std::type_identity<pause>)
+{
+    return std::tuple{member("ref", &pause::ref)};
+}
+
+constexpr auto fields(std::type_identity<resume>)
+{
+    return std::tuple{member("ref", &resume::ref)};
+}
+
+constexpr auto fields(std::type_identity<reset>)
+{
+    return std::tuple{member("ref", &reset::ref)};
+}
+
+constexpr auto fields(std::type_identity<load_scene>)
+{
+    return std::tuple{member("ref", &load_scene::ref), member("scene", &load_scene::scene)};
+}
+
 constexpr auto fields(std::type_identity<wall>)
 {
     return std::tuple{member("normal", &wall::normal), member("offset", &wall::offset),
@@ -245,7 +265,8 @@ constexpr auto fields(std::type_identity<session_limits>)
 {
     return std::tuple{member("max_message_bytes", &session_limits::max_message_bytes),
                       member("max_bodies", &session_limits::max_bodies),
-                      member("commands_per_second", &session_limits::commands_per_second)};
+                      member("commands_per_second", &session_limits::commands_per_second),
+                      member("max_bodies_per_client", &session_limits::max_bodies_per_client)};
 }
 
 constexpr auto fields(std::type_identity<welcome>)
@@ -257,7 +278,8 @@ constexpr auto fields(std::type_identity<welcome>)
                       member("dt", &welcome::dt, above_zero),
                       member("snapshot_rate", &welcome::snapshot_rate, above_zero),
                       member("scene", &welcome::scene),
-                      member("limits", &welcome::limits)};
+                      member("limits", &welcome::limits),
+                      with_default("admin", &welcome::admin)};
 }
 
 constexpr auto fields(std::type_identity<ack>)
@@ -284,7 +306,7 @@ constexpr auto fields(std::type_identity<body_columns>)
 constexpr auto fields(std::type_identity<snapshot>)
 {
     return std::tuple{member("tick", &snapshot::tick), member("time", &snapshot::time),
-                      member("bodies", &snapshot::bodies)};
+                      with_default("paused", &snapshot::paused), member("bodies", &snapshot::bodies)};
 }
 
 constexpr auto fields(std::type_identity<pong>)
@@ -403,6 +425,20 @@ void read_value(json const& value, location const& at, std::string& out)
     if (!value.is_string())
         at.fail(error_code::wrong_type, "must be a string, got " + describe(value));
     out = value.get<std::string>();
+}
+
+void read_value(json const& value, location const& at, bool& out)
+{
+    if (!value.is_boolean())
+        at.fail(error_code::wrong_type, "must be true or false, got " + describe(value));
+    out = value.get<bool>();
+}
+
+void read_value(json const& value, location const& at, json_object& out)
+{
+    if (!value.is_object())
+        at.fail(error_code::wrong_type, "must be an object, got " + describe(value));
+    out.text = dump(value);
 }
 
 void read_value(json const& value, location const& at, error_code& out)
@@ -686,6 +722,16 @@ json to_value(std::string const& s)
 {
     return s;
 }
+json to_value(bool b)
+{
+    return b;
+}
+json to_value(json_object const& object)
+{
+    // Text that decode() gave is one object; anything else is written as null, not thrown.
+    json value = json::parse(object.text, nullptr, /*allow_exceptions=*/false);
+    return value.is_object() ? value : json(nullptr);
+}
 json to_value(error_code code)
 {
     return name(code);
@@ -777,6 +823,22 @@ std::string encode(ping const& message)
 {
     return encode_message(message);
 }
+std::string encode(pause const& message)
+{
+    return encode_message(message);
+}
+std::string encode(resume const& message)
+{
+    return encode_message(message);
+}
+std::string encode(reset const& message)
+{
+    return encode_message(message);
+}
+std::string encode(load_scene const& message)
+{
+    return encode_message(message);
+}
 std::string encode(welcome const& message)
 {
     return encode_message(message);
@@ -849,6 +911,7 @@ std::string encode(snapshot const& message)
     w.number(message.tick);
     w.raw(R"(,"time":)");
     w.number(message.time);
+    w.raw(message.paused ? R"(,"paused":true)" : R"(,"paused":false)");
     w.raw(R"(,"bodies":{)");
     w.column("id", b.id);
     w.raw(",");

@@ -30,6 +30,10 @@ std::string encode(spawn const& message);
 std::string encode(impulse const& message);
 std::string encode(remove const& message);
 std::string encode(ping const& message);
+std::string encode(pause const& message);
+std::string encode(resume const& message);
+std::string encode(reset const& message);
+std::string encode(load_scene const& message);
 std::string encode(client_message const& message);
 
 std::string encode(welcome const& message);

@@ -25,6 +25,8 @@ enum class error_code {
     room_full,         ///< spawn while the room holds limits.max_bodies bodies
     rate_limited,      ///< more than limits.commands_per_second commands
     message_too_large, ///< a frame longer than limits.max_message_bytes
+    forbidden,         ///< an admin command (or a wrong admin token) from a non-admin
+    too_many_bodies,   ///< spawn while the client has limits.max_bodies_per_client bodies
 };
 
 /// Every code, in declaration order.
@@ -33,7 +35,8 @@ inline constexpr std::array all_error_codes{
     error_code::missing_field, error_code::wrong_type,           error_code::not_finite,
     error_code::bad_value,     error_code::unsupported_protocol, error_code::unknown_body,
     error_code::outside_world, error_code::overlaps_wall,        error_code::room_full,
-    error_code::rate_limited,  error_code::message_too_large,
+    error_code::rate_limited,  error_code::message_too_large,    error_code::forbidden,
+    error_code::too_many_bodies,
 };
 
 /// The wire name of a code: "bad_json", "unknown_body", ...

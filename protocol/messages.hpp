@@ -32,12 +32,14 @@ using vec3 = std::array<double, 3>;
 
 // Client -> server --------------------------------------------------------------------------
 
-/// Optional first message: which protocol the client speaks, and a name for logs.
+/// Optional first message: which protocol the client speaks, a name for logs, and the
+/// admin token that makes this connection an admin.
 struct hello
 {
     static constexpr std::string_view type = "hello";
     std::optional<int> protocol; ///< must be protocol_version when given
     std::optional<std::string> name;
+    std::optional<std::string> admin_token; ///< the server's --admin-token; never logged
 
     bool operator==(hello const&) const = default;
 };
@@ -92,7 +94,58 @@ struct ping
     bool operator==(ping const&) const = default;
 };
 
-using client_message = std::variant<hello, spawn, impulse, remove, ping>;
+// Admin commands: only a connection whose hello carried the server's admin token may send
+// them; anyone else gets `forbidden`.
+
+/// Stop stepping the world: ticks go on (commands still apply), simulated time stands still.
+struct pause
+{
+    static constexpr std::string_view type = "pause";
+    std::uint64_t ref = 0;
+
+    bool operator==(pause const&) const = default;
+};
+
+/// Step the world again after a pause.
+struct resume
+{
+    static constexpr std::string_view type = "resume";
+    std::uint64_t ref = 0;
+
+    bool operator==(resume const&) const = default;
+};
+
+/// Put the room's scene back as it was loaded: its bodies (under new ids), every spawned
+/// body gone. Simulated time and ticks go on.
+struct reset
+{
+    static constexpr std::string_view type = "reset";
+    std::uint64_t ref = 0;
+
+    bool operator==(reset const&) const = default;
+};
+
+/// A JSON object carried as its text. The protocol does not look inside: a scene is read by
+/// the server's scene loader, which names what is wrong with it.
+struct json_object
+{
+    std::string text; ///< one JSON object, as decode() gives it
+
+    bool operator==(json_object const&) const = default;
+};
+
+/// Replace the room's world by a scene (the format of a scene file, inline).
+struct load_scene
+{
+    static constexpr std::string_view type = "load_scene";
+    std::uint64_t ref = 0;
+    json_object scene;
+
+    bool operator==(load_scene const&) const = default;
+};
+
+using client_message =
+    std::variant<hello, spawn, impulse, remove, ping, pause, resume, reset, load_scene>;
 
 // Server -> client --------------------------------------------------------------------------
 
@@ -143,11 +196,15 @@ struct session_limits
     std::uint64_t max_message_bytes = 0;   ///< longer frames close the connection (1009)
     std::uint64_t max_bodies = 0;          ///< a spawn beyond it gets room_full
     std::uint64_t commands_per_second = 0; ///< more get rate_limited
+    /// Bodies this connection spawned that may exist at once (more: too_many_bodies);
+    /// absent when no such cap applies to it (none is set, or the client is an admin).
+    std::optional<std::uint64_t> max_bodies_per_client;
 
     bool operator==(session_limits const&) const = default;
 };
 
-/// The server's first message on every connection.
+/// The server's first message on every connection, and again whenever what it says changes
+/// (the client became an admin, an admin loaded another scene).
 struct welcome
 {
     static constexpr std::string_view type = "welcome";
@@ -159,6 +216,7 @@ struct welcome
     double snapshot_rate = 0.0; ///< Hz
     scene_geometry scene;
     session_limits limits;
+    bool admin = false; ///< this connection may send admin commands
 
     bool operator==(welcome const&) const = default;
 };
@@ -204,6 +262,7 @@ struct snapshot
     static constexpr std::string_view type = "snapshot";
     std::uint64_t tick = 0; ///< ticks completed
     double time = 0.0;      ///< s of simulated time
+    bool paused = false;    ///< an admin paused the room: ticks go on, time stands still
     body_columns bodies;
 
     bool operator==(snapshot const&) const = default;

@@ -1,6 +1,7 @@
 #include "http_session.hpp"
 
 #include "metrics.hpp"
+#include "origin_check.hpp"
 
 #include <spdlog/spdlog.h>
 
@@ -51,6 +52,16 @@ std::optional<std::filesystem::path> file_for(std::filesystem::path const& root,
     if (!std::filesystem::is_regular_file(file, ec))
         return std::nullopt;
     return file;
+}
+
+/// Client text for a log line or an answer: at most 100 bytes, control characters as '?'.
+std::string printable(std::string_view text)
+{
+    std::string out(text.substr(0, 100));
+    for (char& c : out)
+        if (static_cast<unsigned char>(c) < 0x20 || c == 0x7f)
+            c = '?';
+    return text.size() > 100 ? out + "..." : out;
 }
 
 } // namespace
@@ -116,6 +127,21 @@ void http_session::on_read(beast::error_code ec, std::size_t)
 
     http::request<http::string_body> request = parser_->release();
     if (websocket::is_upgrade(request)) {
+        // A browser lets any page open a WebSocket to any server, and says which page did in
+        // Origin: only the server's own page and the origins it was told of are let in.
+        std::string_view const origin = request[http::field::origin];
+        if (!origin_allowed(origin, request[http::field::host], routes_->allowed_origins)) {
+            std::string const shown = printable(origin);
+            auto const n = ++routes_->origin_refusals;
+            if (n <= 10 || n % 100 == 0) // a refused page retrying cannot flood the log
+                spdlog::info("refused a WebSocket upgrade from origin {} ({} so far); "
+                             "--allow-origin {} would allow it",
+                             shown, n, shown);
+            return send(text_response(request, http::status::forbidden,
+                                      "origin " + shown + " may not open a WebSocket here; "
+                                      "start kugel-server with --allow-origin " + shown +
+                                      " to allow it\n"));
+        }
         auto const room_name = room_of_target(request.target());
         auto target_room = room_name ? routes_->find_room(*room_name) : nullptr;
         if (!target_room) {

@@ -2,12 +2,15 @@
 
 #include "network.hpp"
 
+#include <atomic>
+#include <cstdint>
 #include <filesystem>
 #include <functional>
 #include <memory>
 #include <optional>
 #include <string>
 #include <utility>
+#include <vector>
 
 namespace kugel::server {
 
@@ -18,6 +21,10 @@ class room;
 struct http_routes
 {
     std::filesystem::path web_root; ///< empty: no static files
+    /// Origins allowed to upgrade besides the server's own (normalized_origin's form).
+    std::vector<std::string> allowed_origins;
+    /// Upgrades refused for their Origin, for rate-limiting the log.
+    mutable std::atomic<std::uint64_t> origin_refusals{0};
     std::function<std::shared_ptr<room>(std::string_view name)> find_room;
     std::function<void(tcp::socket&&, std::shared_ptr<room>, http::request<http::string_body>)>
         upgrade; ///< hands the socket to a new websocket_session

@@ -125,7 +125,11 @@ int main(int argc, char** argv)
     app.add_option("--room", rooms,
                    "Host a room NAME=SCENE (repeatable), reached at /ws/NAME; without any,\n"
                    "one room 'default' with the built-in arena scene at /ws");
-    app.add_option("--host", options.host, "Address to listen on")->capture_default_str();
+    app.add_option("--host", options.host,
+                   "Address to listen on. The default takes connections from this machine only;\n"
+                   "0.0.0.0 (IPv4) or :: (IPv6) opens the server to the network: then give\n"
+                   "--admin-token, and --allow-origin for pages served from elsewhere")
+        ->capture_default_str();
     app.add_option("--port", options.port, "Port to listen on (0: any free port)")
         ->capture_default_str();
     app.add_option("--tick-rate", options.tick_rate, "World steps per second (Hz)")
@@ -146,6 +150,20 @@ int main(int argc, char** argv)
                    "more are answered with rate_limited")
         ->check(CLI::Range(std::uint64_t{1}, std::uint64_t{1'000'000}))
         ->capture_default_str();
+    app.add_option("--max-bodies-per-client", options.client.max_bodies_per_client,
+                   "Bodies one connection spawned that may exist at once; more are answered with\n"
+                   "too_many_bodies (0: no cap; admins are exempt)")
+        ->capture_default_str();
+    app.add_option("--allow-origin", options.allowed_origins,
+                   "Let browser pages from this origin (scheme://host[:port]) open a WebSocket\n"
+                   "(repeatable; '*' allows every origin). The server's own page is always let\n"
+                   "in, and so are programs, which send no Origin; other pages get HTTP 403")
+        ->take_all();
+    app.add_option("--admin-token", options.admin_token,
+                   "A client whose hello carries this admin_token is an admin: it may pause,\n"
+                   "resume, reset a room, load a scene into it and remove any body. Without\n"
+                   "it nobody is an admin. Prefer the environment variable, which ps does not show")
+        ->envname("KUGEL_ADMIN_TOKEN");
     app.add_option("--max-message-bytes", options.client.max_message_bytes,
                    "Largest inbound WebSocket frame; a larger one closes the connection (1009)")
         ->check(CLI::Range(std::size_t{256}, std::size_t{64} << 20))
@@ -186,6 +204,14 @@ int main(int argc, char** argv)
             spdlog::error("{}", e.what());
             return 2;
         }
+        if (app.count("--admin-token") > 0 && options.admin_token.empty()) {
+            spdlog::error("--admin-token (or KUGEL_ADMIN_TOKEN) is empty; give a token, or none "
+                          "for a server without admins");
+            return 2;
+        }
+        if (!options.admin_token.empty() && options.admin_token.size() < 16)
+            spdlog::warn("the admin token has {} characters; one of 16 or more random characters "
+                         "is much harder to guess", options.admin_token.size());
         options.web_root = web_root;
         options.state_dir = state_dir;
         options.checkpoint_interval = std::chrono::duration_cast<std::chrono::milliseconds>(

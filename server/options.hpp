@@ -23,12 +23,16 @@ struct client_limits
     double commands_per_second = 200.0;         ///< sustained; larger: error rate_limited
     double command_burst = 200.0;               ///< commands allowed at once after a pause
     std::size_t max_queued_replies = 256;       ///< acks and errors not yet sent; more: close 1008
+    /// Bodies one connection spawned that may exist at once; a spawn beyond it: error
+    /// too_many_bodies. 0: no cap. Admins are exempt.
+    std::size_t max_bodies_per_client = 1000;
     std::chrono::milliseconds write_stall{5000}; ///< a send pending this long: the client is
                                                  ///< not reading, and is disconnected
 };
 
 struct server_options
 {
+    /// Only this machine can connect unless told otherwise (0.0.0.0 or :: opens the server).
     std::string host = "127.0.0.1";
     std::uint16_t port = 8080;   ///< 0 picks a free port (tests)
     double tick_rate = 60.0;     ///< Hz, world steps per second of wall time
@@ -46,6 +50,13 @@ struct server_options
     /// A checkpoint that cannot be used is moved aside (ROOM.json.bad-<time>) and the room
     /// starts fresh; without this the server refuses to start.
     bool discard_bad_state = false;
+    /// Browser origins, besides the server's own, whose pages may open a WebSocket
+    /// (scheme://host[:port], or "*" for every origin). Upgrades without Origin (programs,
+    /// not browsers) are always let in.
+    std::vector<std::string> allowed_origins;
+    /// What a hello's admin_token must be for the connection to be an admin (pause, resume,
+    /// reset, load_scene, remove any body); empty: nobody is an admin.
+    std::string admin_token;
 };
 
 } // namespace kugel::server

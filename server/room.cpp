@@ -74,7 +74,7 @@ room::room(net::io_context& io, std::string name, scene::scene const& s, setting
       period_(std::chrono::duration_cast<clock::duration>(
           std::chrono::duration<double>(1.0 / settings_.tick_rate))),
       checkpoint_timer_(strand_), scene_name_(s.name),
-      scene_fingerprint_(std::move(scene_fingerprint)),
+      scene_fingerprint_(std::move(scene_fingerprint)), scene_(s),
       world_(restored ? restored_world(s, *restored, checkpoint_path(settings_.state_dir, name_).string())
                       : scene::build_world(s)),
       dt_(s.dt), send_charges_(s.forces.coulomb.has_value())
@@ -119,6 +119,12 @@ bool room::write_checkpoint()
 {
     if (settings_.state_dir.empty())
         return false;
+    if (scene_replaced_) {
+        spdlog::warn("room '{}': no final checkpoint: it runs a scene an admin loaded, which a "
+                     "restart could not rebuild; the last checkpoint of its own scene stays",
+                     name_);
+        return false;
+    }
     auto const started = clock::now();
     checkpoint const c = take_checkpoint();
     return write(c, clock::now() - started);
@@ -160,6 +166,13 @@ void room::on_checkpoint_timer(beast::error_code ec)
 {
     if (ec || !running_)
         return;
+    if (scene_replaced_) {
+        if (!std::exchange(checkpoints_suspended_logged_, true))
+            spdlog::warn("room '{}': checkpoints stop while it runs a scene an admin loaded (a "
+                         "restart could not rebuild it); the last one of its own scene stays",
+                         name_);
+        return schedule_next_checkpoint();
+    }
     // Only the copy is taken here, between two ticks (0.2 ms for 10,000 bodies); encoding
     // and fsync (the most of the cost) run on another worker, so the tick does not wait. One
     // write at a time: when the last is still under way, this interval's is skipped.
@@ -205,21 +218,41 @@ void room::join(std::shared_ptr<websocket_session> session)
         // Counted before the welcome goes out, so a client that has its welcome is counted.
         self->sessions_.push_back({session->client_id(), session});
         self->counters_.sessions = self->sessions_.size();
-        protocol::welcome welcome = self->welcome_;
-        welcome.client = session->client_id();
-        session->send_reply(share(protocol::encode(welcome)));
+        session->send_reply(self->welcome_for(self->sessions_.back()));
     });
 }
 
-void room::submit(std::shared_ptr<websocket_session> from, protocol::client_message message)
+void room::grant_admin(std::shared_ptr<websocket_session> session)
+{
+    net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
+        for (member& m : self->sessions_)
+            if (m.client_id == session->client_id()) {
+                m.admin = true;
+                session->send_notice(self->welcome_for(m));
+            }
+    });
+}
+
+std::shared_ptr<std::string const> room::welcome_for(member const& m) const
+{
+    protocol::welcome welcome = welcome_;
+    welcome.client = m.client_id;
+    welcome.admin = m.admin;
+    if (!m.admin && settings_.client.max_bodies_per_client > 0)
+        welcome.limits.max_bodies_per_client = settings_.client.max_bodies_per_client;
+    return share(protocol::encode(welcome));
+}
+
+void room::submit(std::shared_ptr<websocket_session> from, protocol::client_message message,
+                  bool admin)
 {
     net::post(strand_, [self = shared_from_this(), from = std::move(from),
-                        message = std::move(message)]() mutable {
+                        message = std::move(message), admin]() mutable {
         if (auto const* ping = std::get_if<protocol::ping>(&message)) {
             from->send_reply(share(protocol::encode(protocol::pong{ping->ref, self->counters_.ticks})));
             return;
         }
-        self->pending_commands_.push_back({from, std::move(message)});
+        self->pending_commands_.push_back({from, std::move(message), admin});
     });
 }
 
@@ -249,14 +282,14 @@ void room::apply_commands(std::vector<command> commands)
             continue; // the client left; its commands still would apply, but nobody hears
         std::visit(
             [&](auto const& m) {
-                if constexpr (requires { apply(m, *from); })
-                    apply(m, *from);
+                if constexpr (requires { apply(m, *from, c.admin); })
+                    apply(m, *from, c.admin);
             },
             c.message);
     }
 }
 
-void room::apply(protocol::spawn const& spawn, websocket_session& from)
+void room::apply(protocol::spawn const& spawn, websocket_session& from, bool admin)
 {
     protocol::body_spec const& body = spawn.body;
     auto const refuse_spawn = [&](error_code code, std::string message) {
@@ -265,6 +298,15 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from)
     if (world_.bodies().size() >= settings_.max_bodies)
         return refuse_spawn(error_code::room_full, "the room holds its limit of " +
                                                  std::to_string(settings_.max_bodies) + " bodies");
+    std::size_t const cap = settings_.client.max_bodies_per_client;
+    if (!admin && cap > 0) {
+        auto const own = bodies_of_client_.find(from.client_id());
+        if (own != bodies_of_client_.end() && own->second >= cap)
+            return refuse_spawn(error_code::too_many_bodies,
+                                fmt::format("/: this client has {} bodies in the room, the most "
+                                            "one client may have; remove one to spawn another",
+                                            own->second));
+    }
     physics::vec3 const x = from_wire(body.position);
     for (std::size_t k = 0; k < world_.walls().size(); ++k) {
         physics::plane const& p = world_.walls()[k].surface;
@@ -302,10 +344,12 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from)
     } catch (std::invalid_argument const& e) {
         return refuse_spawn(error_code::bad_value, std::string("/body: ") + e.what());
     }
+    owner_of_wire_id_.emplace(id, from.client_id());
+    ++bodies_of_client_[from.client_id()];
     from.send_reply(share(protocol::encode(protocol::ack{spawn.ref, counters_.ticks + 1, id})));
 }
 
-void room::apply(protocol::impulse const& impulse, websocket_session& from)
+void room::apply(protocol::impulse const& impulse, websocket_session& from, bool)
 {
     auto const body = find_body(impulse.id, impulse.ref, from);
     if (!body)
@@ -325,15 +369,129 @@ void room::apply(protocol::impulse const& impulse, websocket_session& from)
     from.send_reply(share(protocol::encode(protocol::ack{impulse.ref, counters_.ticks + 1, {}})));
 }
 
-void room::apply(protocol::remove const& remove, websocket_session& from)
+void room::apply(protocol::remove const& remove, websocket_session& from, bool admin)
 {
     auto const body = find_body(remove.id, remove.ref, from);
     if (!body)
         return;
+    auto const owner = owner_of_wire_id_.find(remove.id);
+    bool const own = owner != owner_of_wire_id_.end() && owner->second == from.client_id();
+    if (!own && !admin)
+        return refuse(traffic_, from, remove.ref, error_code::forbidden,
+                      fmt::format("/id: body {} {}; a client may remove only the bodies it "
+                                  "spawned (an admin may remove any)",
+                                  remove.id,
+                                  owner == owner_of_wire_id_.end() ? "came with the scene"
+                                                                   : "was spawned by another client"));
     world_.remove_body(*body);
     body_of_wire_id_.erase(remove.id);
+    if (owner != owner_of_wire_id_.end()) {
+        auto const count = bodies_of_client_.find(owner->second);
+        if (count != bodies_of_client_.end() && --count->second == 0)
+            bodies_of_client_.erase(count);
+        owner_of_wire_id_.erase(owner);
+    }
     counters_.bodies = world_.bodies().size();
     from.send_reply(share(protocol::encode(protocol::ack{remove.ref, counters_.ticks + 1, {}})));
+}
+
+// The admin commands. The session refuses them from anyone else before they are queued; the
+// check here keeps the room right should another caller ever submit one.
+
+void room::apply(protocol::pause const& pause, websocket_session& from, bool admin)
+{
+    if (!admin)
+        return refuse(traffic_, from, pause.ref, error_code::forbidden, "/type: pause is an admin command");
+    if (!paused_)
+        spdlog::info("room '{}': paused by client {} at tick {}", name_, from.client_id(), counters_.ticks.load());
+    paused_ = true;
+    from.send_reply(share(protocol::encode(protocol::ack{pause.ref, counters_.ticks + 1, {}})));
+}
+
+void room::apply(protocol::resume const& resume, websocket_session& from, bool admin)
+{
+    if (!admin)
+        return refuse(traffic_, from, resume.ref, error_code::forbidden, "/type: resume is an admin command");
+    if (paused_)
+        spdlog::info("room '{}': resumed by client {} at tick {}", name_, from.client_id(), counters_.ticks.load());
+    paused_ = false;
+    from.send_reply(share(protocol::encode(protocol::ack{resume.ref, counters_.ticks + 1, {}})));
+}
+
+void room::apply(protocol::reset const& reset, websocket_session& from, bool admin)
+{
+    if (!admin)
+        return refuse(traffic_, from, reset.ref, error_code::forbidden, "/type: reset is an admin command");
+    try {
+        replace_world(scene_);
+    } catch (std::exception const& e) {
+        // The scene built this room once, so it builds again; should it not, nothing changed.
+        return refuse(traffic_, from, reset.ref, error_code::bad_value,
+                      std::string("/: the scene cannot be rebuilt: ") + e.what());
+    }
+    spdlog::info("room '{}': reset to scene '{}' by client {}", name_, scene_.name, from.client_id());
+    from.send_reply(share(protocol::encode(protocol::ack{reset.ref, counters_.ticks + 1, {}})));
+}
+
+void room::apply(protocol::load_scene const& load, websocket_session& from, bool admin)
+{
+    if (!admin)
+        return refuse(traffic_, from, load.ref, error_code::forbidden, "/type: load_scene is an admin command");
+    scene::scene s;
+    try {
+        // The loader's messages start with the source; "/scene" makes them point into the
+        // command: "/scene: /bodies/0/radius: must be >= 0, got -1".
+        s = scene::parse_scene(load.scene.text, "/scene");
+    } catch (scene::scene_error const& e) {
+        return refuse(traffic_, from, load.ref, error_code::bad_value, e.what());
+    }
+    if (s.body_count() > settings_.max_bodies)
+        return refuse(traffic_, from, load.ref, error_code::room_full,
+                      fmt::format("/scene: it has {} bodies, and the room holds at most {}",
+                                  s.body_count(), settings_.max_bodies));
+    std::string const old_name = scene_.name;
+    try {
+        replace_world(std::move(s));
+    } catch (std::exception const& e) {
+        return refuse(traffic_, from, load.ref, error_code::bad_value,
+                      std::string("/scene: cannot be built: ") + e.what());
+    }
+    scene_replaced_ = true;
+    spdlog::info("room '{}': scene '{}' replaced by '{}' ({} bodies, dt {} s) by client {}", name_,
+                 old_name, scene_.name, world_.bodies().size(), dt_, from.client_id());
+    from.send_reply(share(protocol::encode(protocol::ack{load.ref, counters_.ticks + 1, {}})));
+    // Every client learns the new geometry and dt, each in its own welcome.
+    for (member const& m : sessions_)
+        if (auto session = m.session.lock())
+            session->send_notice(welcome_for(m));
+}
+
+void room::replace_world(scene::scene s)
+{
+    // Built aside first: a scene that fails to build leaves the room as it was.
+    physics::world fresh = scene::build_world(s);
+    fresh.restore_clock(world_.time(), world_.time_compensation(), world_.steps());
+    protocol::welcome welcome = make_welcome(name_, s, fresh, settings_);
+
+    world_ = std::move(fresh);
+    welcome_ = std::move(welcome);
+    dt_ = s.dt;
+    send_charges_ = s.forces.coulomb.has_value();
+    step_failed_ = false;
+    wire_id_of_index_.clear();
+    body_of_wire_id_.clear();
+    owner_of_wire_id_.clear();
+    bodies_of_client_.clear();
+    // New ids for every body: an id names one body for the life of the room.
+    for (physics::body_id const id : world_.bodies().ids()) {
+        std::uint64_t const wire_id = next_wire_id_++;
+        if (wire_id_of_index_.size() <= id.index)
+            wire_id_of_index_.resize(id.index + 1, 0);
+        wire_id_of_index_[id.index] = wire_id;
+        body_of_wire_id_.emplace(wire_id, id);
+    }
+    counters_.bodies = world_.bodies().size();
+    scene_ = std::move(s);
 }
 
 std::optional<physics::body_id> room::find_body(std::uint64_t wire_id, std::uint64_t ref,
@@ -360,6 +518,10 @@ std::uint64_t room::add_body(physics::body_desc const& desc)
 
 void room::step_world()
 {
+    if (paused_) { // the tick goes on, the world stands still
+        ++counters_.ticks;
+        return;
+    }
     try {
         world_.step(dt_);
         step_failed_ = false;
@@ -388,6 +550,7 @@ std::shared_ptr<std::string const> room::encode_snapshot() const
     protocol::snapshot snapshot;
     snapshot.tick = counters_.ticks;
     snapshot.time = world_.time();
+    snapshot.paused = paused_;
     protocol::body_columns& columns = snapshot.bodies;
     columns.id.reserve(n);
     columns.position.reserve(3 * n);

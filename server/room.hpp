@@ -77,8 +77,13 @@ public:
     /// Adds a session; it is sent `welcome` first, then every snapshot. A session leaves
     /// by ending: the room holds it weakly and forgets it at the next snapshot.
     void join(std::shared_ptr<websocket_session> session);
-    /// Queues a command for the next tick (ping is answered at once).
-    void submit(std::shared_ptr<websocket_session> from, protocol::client_message command);
+    /// Queues a command for the next tick (ping is answered at once). `admin`: the sender
+    /// proved itself an admin before sending it (the session refuses admin commands from
+    /// anyone else; the room checks what only it can: whose body a remove names).
+    void submit(std::shared_ptr<websocket_session> from, protocol::client_message command,
+                bool admin = false);
+    /// The session proved itself an admin: it is sent a welcome saying so.
+    void grant_admin(std::shared_ptr<websocket_session> session);
 
     /// The room's state now. Call it on the room's strand, or while nothing runs the room
     /// (before start, after the server's threads ended).
@@ -94,13 +99,24 @@ private:
     {
         std::weak_ptr<websocket_session> from;
         protocol::client_message message;
+        bool admin = false; ///< the sender is an admin
     };
+    struct member;
 
     void on_tick(beast::error_code ec);
     void apply_commands(std::vector<command> commands);
-    void apply(protocol::spawn const& spawn, websocket_session& from);
-    void apply(protocol::impulse const& impulse, websocket_session& from);
-    void apply(protocol::remove const& remove, websocket_session& from);
+    void apply(protocol::spawn const& spawn, websocket_session& from, bool admin);
+    void apply(protocol::impulse const& impulse, websocket_session& from, bool admin);
+    void apply(protocol::remove const& remove, websocket_session& from, bool admin);
+    void apply(protocol::pause const& pause, websocket_session& from, bool admin);
+    void apply(protocol::resume const& resume, websocket_session& from, bool admin);
+    void apply(protocol::reset const& reset, websocket_session& from, bool admin);
+    void apply(protocol::load_scene const& load, websocket_session& from, bool admin);
+    /// Replaces the world by `s`'s, fresh: new wire ids for its bodies (the counter goes on),
+    /// no spawned bodies, the clock going on from where it stood.
+    void replace_world(scene::scene s);
+    /// What `m` is told in its welcome: the room's, with its id, admin flag and caps.
+    std::shared_ptr<std::string const> welcome_for(member const& m) const;
     void step_world();
     bool snapshot_due();
     std::shared_ptr<std::string const> encode_snapshot() const;
@@ -127,11 +143,17 @@ private:
     net::steady_timer checkpoint_timer_;
     std::string scene_name_;
     std::string scene_fingerprint_;
+    /// An admin loaded a scene that is in no file: a restart could not rebuild it, so no
+    /// checkpoint is written until the server restarts (the last one stays as it was).
+    bool scene_replaced_ = false;
+    bool checkpoints_suspended_logged_ = false;
     std::atomic<bool> checkpoint_failing_{false}; ///< the last write failed; logged once per streak
     std::atomic<bool> checkpoint_writing_{false}; ///< a periodic write is under way off the strand
 
+    scene::scene scene_;               ///< the scene as loaded: what reset goes back to
     physics::world world_;
     double dt_;                        ///< s per tick
+    bool paused_ = false;              ///< an admin paused the room: ticks go on, no steps
     protocol::welcome welcome_;        ///< all but the client id
     bool send_charges_; ///< the scene has Coulomb forces: snapshots carry charges
 
@@ -140,12 +162,18 @@ private:
     std::uint64_t next_wire_id_ = 1;
     std::vector<std::uint64_t> wire_id_of_index_; ///< by physics::body_id::index
     std::unordered_map<std::uint64_t, physics::body_id> body_of_wire_id_;
+    // Who spawned what: a client may remove only its own bodies, and hold at most
+    // client.max_bodies_per_client of them. Bodies of the scene (or a checkpoint) have no
+    // owner. A body outlives its client; its count is dropped when the body goes.
+    std::unordered_map<std::uint64_t, std::uint64_t> owner_of_wire_id_; ///< wire id -> client id
+    std::unordered_map<std::uint64_t, std::size_t> bodies_of_client_;   ///< client id -> bodies
 
     std::vector<command> pending_commands_;
     struct member
     {
         std::uint64_t client_id;
         std::weak_ptr<websocket_session> session; ///< a session leaves when it ends
+        bool admin = false;
     };
     std::vector<member> sessions_;
     double snapshot_phase_ = 0.0; ///< snapshot_rate accumulated per tick, due at tick_rate

@@ -2,6 +2,7 @@
 
 #include "checkpoint.hpp"
 #include "listener.hpp"
+#include "origin_check.hpp"
 #include "room.hpp"
 #include "websocket_session.hpp"
 
@@ -137,18 +138,21 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
 
     auto routes = std::make_shared<http_routes>();
     routes->web_root = options.web_root;
+    for (std::string const& origin : options.allowed_origins)
+        routes->allowed_origins.push_back(normalized_origin(origin)); // throws for a bad one
     state* const s = state_.get();
     routes->find_room = [s](std::string_view name) -> std::shared_ptr<room> {
         auto const it = s->rooms.find(name);
         return it == s->rooms.end() ? nullptr : it->second;
     };
     client_limits const limits = options.client;
-    routes->upgrade = [s, limits](tcp::socket&& socket, std::shared_ptr<room> target,
-                                  http::request<http::string_body> request) {
+    routes->upgrade = [s, limits, admin_token = options.admin_token](
+                          tcp::socket&& socket, std::shared_ptr<room> target,
+                          http::request<http::string_body> request) {
         if (s->stopping)
             return; // dropping the socket closes it
         std::make_shared<websocket_session>(std::move(socket), std::move(target), limits,
-                                            s->next_client_id++)
+                                            s->next_client_id++, admin_token)
             ->run(std::move(request));
     };
     routes->health = [s] {

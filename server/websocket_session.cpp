@@ -1,5 +1,6 @@
 #include "websocket_session.hpp"
 
+#include "admin_token.hpp"
 #include "room.hpp"
 
 #include "protocol/codec.hpp"
@@ -43,12 +44,32 @@ bool worth_logging(std::uint64_t n)
     return n <= 10 || n % 100 == 0;
 }
 
+/// The type of an admin command, or nothing for a command everyone may send.
+std::optional<std::string_view> admin_command(protocol::client_message const& message)
+{
+    return std::visit(
+        []<class M>(M const&) -> std::optional<std::string_view> {
+            if constexpr (std::is_same_v<M, protocol::pause> || std::is_same_v<M, protocol::resume> ||
+                          std::is_same_v<M, protocol::reset> || std::is_same_v<M, protocol::load_scene>)
+                return M::type;
+            else
+                return std::nullopt;
+        },
+        message);
+}
+
+std::shared_ptr<std::string const> encoded(protocol::error const& e)
+{
+    return std::make_shared<std::string const>(protocol::encode(e));
+}
+
 } // namespace
 
 websocket_session::websocket_session(tcp::socket&& socket, std::shared_ptr<room> joined,
-                                     client_limits limits, std::uint64_t client_id)
+                                     client_limits limits, std::uint64_t client_id,
+                                     std::string admin_token)
     : ws_(std::move(socket)), room_(std::move(joined)), limits_(limits), client_id_(client_id),
-      tokens_(limits.command_burst), refilled_(clock::now())
+      admin_token_(std::move(admin_token)), tokens_(limits.command_burst), refilled_(clock::now())
 {
     beast::error_code ec;
     // Small replies must not wait behind a snapshot for the client's delayed ACK (Nagle):
@@ -148,21 +169,62 @@ void websocket_session::handle_message(std::string_view text)
         if (hello->name && !named_) // a flood of hellos logs one line
             spdlog::info("client {} ({}) is '{}'", client_id_, peer_, printable(*hello->name));
         named_ = named_ || hello->name.has_value();
+        if (hello->admin_token)
+            handle_admin_token(*hello->admin_token);
         return;
     }
-    if (!take_command_token()) {
-        room_->traffic().count_rejected(protocol::error_code::rate_limited);
-        if (worth_logging(++rate_limited_))
-            spdlog::info("client {} ({}): refused {} commands over the rate limit so far",
-                         client_id_, peer_, rate_limited_);
-        queue_reply(std::make_shared<std::string const>(protocol::encode(protocol::error{
-            ref_of(message), protocol::error_code::rate_limited,
-            fmt::format("more than {} commands per second; this one was dropped",
-                        limits_.commands_per_second)})));
+    if (!take_command_token())
+        return refuse_rate_limited(ref_of(message));
+    if (auto const type = admin_command(message); type && !admin_) {
+        room_->traffic().count_rejected(protocol::error_code::forbidden);
+        if (worth_logging(++forbidden_))
+            spdlog::info("client {} ({}): refused admin command {} from a non-admin ({} refusals "
+                         "so far)", client_id_, peer_, *type, forbidden_);
+        queue_reply(encoded({ref_of(message), protocol::error_code::forbidden,
+                             fmt::format("/type: {} is an admin command, and this connection is "
+                                         "not an admin (a hello with the server's admin_token "
+                                         "makes it one)", *type)}));
         return;
     }
     ++awaiting_room_;
-    room_->submit(shared_from_this(), std::move(message));
+    room_->submit(shared_from_this(), std::move(message), admin_);
+}
+
+// A token is a password: guessing one takes a command token each try (so a guesser is held
+// to the rate limit), and neither the token nor a guess is ever written to the log.
+void websocket_session::handle_admin_token(std::string_view token)
+{
+    if (!take_command_token())
+        return refuse_rate_limited(std::nullopt);
+    std::string why;
+    if (admin_token_.empty())
+        why = "/admin_token: this server has no admin token, so nobody is an admin";
+    else if (!is_admin_token(token, admin_token_))
+        why = "/admin_token: not the server's admin token; this connection stays an ordinary client";
+    if (!why.empty()) {
+        room_->traffic().count_rejected(protocol::error_code::forbidden);
+        if (worth_logging(++forbidden_))
+            spdlog::warn("client {} ({}): refused a wrong admin token ({} refusals so far)",
+                         client_id_, peer_, forbidden_);
+        queue_reply(encoded({std::nullopt, protocol::error_code::forbidden, std::move(why)}));
+        return;
+    }
+    if (admin_)
+        return;
+    admin_ = true;
+    spdlog::info("client {} ({}) is an admin", client_id_, peer_);
+    room_->grant_admin(shared_from_this()); // answered by a welcome saying so
+}
+
+void websocket_session::refuse_rate_limited(std::optional<std::uint64_t> ref)
+{
+    room_->traffic().count_rejected(protocol::error_code::rate_limited);
+    if (worth_logging(++rate_limited_))
+        spdlog::info("client {} ({}): refused {} commands over the rate limit so far",
+                     client_id_, peer_, rate_limited_);
+    queue_reply(encoded({ref, protocol::error_code::rate_limited,
+                         fmt::format("more than {} commands per second; this one was dropped",
+                                     limits_.commands_per_second)}));
 }
 
 bool websocket_session::take_command_token()
@@ -183,6 +245,13 @@ void websocket_session::send_reply(std::shared_ptr<std::string const> bytes)
         // An answer to a command, or the welcome (which answers none: hence no underflow).
         self->awaiting_room_ -= self->awaiting_room_ > 0 ? 1 : 0;
         self->queue_reply(std::move(bytes));
+    });
+}
+
+void websocket_session::send_notice(std::shared_ptr<std::string const> bytes)
+{
+    net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(bytes)]() mutable {
+        self->queue_reply(std::move(bytes)); // owes no answer: awaiting_room_ stays
     });
 }
 

@@ -7,6 +7,7 @@
 #include <cstdint>
 #include <deque>
 #include <memory>
+#include <optional>
 #include <string>
 
 namespace kugel::server {
@@ -26,15 +27,18 @@ class room;
 class websocket_session : public std::enable_shared_from_this<websocket_session>
 {
 public:
+    /// `admin_token`: what a hello must carry to make this client an admin; empty: none can.
     websocket_session(tcp::socket&& socket, std::shared_ptr<room> joined, client_limits limits,
-                      std::uint64_t client_id);
+                      std::uint64_t client_id, std::string admin_token = {});
     ~websocket_session();
 
     /// Accepts the upgrade request, then joins the room and starts reading.
     void run(http::request<http::string_body> request);
 
-    /// Queues a reply (bytes of one message), ahead of snapshots.
+    /// Queues a reply (bytes of one message), ahead of snapshots: the answer to a command.
     void send_reply(std::shared_ptr<std::string const> bytes);
+    /// Queues a message that answers no command (a welcome sent again), like a reply.
+    void send_notice(std::shared_ptr<std::string const> bytes);
     /// Offers a snapshot; replaces any snapshot not yet sent.
     void send_snapshot(std::shared_ptr<std::string const> bytes);
     /// Closes with 1001 (going away): the server is shutting down.
@@ -50,7 +54,9 @@ private:
     void read_if_room();
     void on_read(beast::error_code ec, std::size_t bytes);
     void handle_message(std::string_view text);
+    void handle_admin_token(std::string_view token);
     bool take_command_token();
+    void refuse_rate_limited(std::optional<std::uint64_t> ref);
 
     void queue_reply(std::shared_ptr<std::string const> bytes);
     void queue_snapshot(std::shared_ptr<std::string const> bytes);
@@ -64,6 +70,8 @@ private:
     std::shared_ptr<room> room_;
     client_limits limits_;
     std::uint64_t client_id_;
+    std::string admin_token_; ///< the server's; empty: nobody is an admin
+    bool admin_ = false;      ///< a hello carried the admin token
     std::string peer_; ///< address:port, for logs
 
     std::deque<std::shared_ptr<std::string const>> replies_;
@@ -80,6 +88,7 @@ private:
     clock::time_point refilled_; ///< when tokens_ was last topped up
     std::uint64_t rate_limited_ = 0; ///< commands refused for the rate, for the log
     std::uint64_t refused_ = 0;      ///< messages that did not decode, for the log
+    std::uint64_t forbidden_ = 0;    ///< admin commands and wrong tokens refused, for the log
     bool named_ = false;             ///< a hello gave a name (logged once)
 };
 

@@ -14,7 +14,9 @@ namespace {
 
 using namespace std::chrono_literals;
 
-/// A server with the example scene "still" as room "still".
+constexpr char const* admin_token = "script-runner-admin-token";
+
+/// A server with the example scene "still" as room "still", and an admin token.
 class running_server : public test_support::in_process_server
 {
 public:
@@ -27,6 +29,7 @@ private:
         server::server_options o;
         o.rooms = {{"still", std::filesystem::path(KUGEL_SOURCE_DIR) / "client" / "examples" /
                                  "scenes" / "still.json"}};
+        o.admin_token = admin_token;
         return o;
     }
 };
@@ -100,6 +103,25 @@ TEST(ScriptRunner, AWrongAnswerIsShownWhole)
     EXPECT_NE(o.result.failure.find("expected: ack"), std::string::npos) << o.result.failure;
     EXPECT_NE(o.result.failure.find(R"("code":"unknown_body")"), std::string::npos)
         << o.result.failure;
+}
+
+TEST(ScriptRunner, AnAdminHelloLetsAScriptSendAdminCommands)
+{
+    running_server s;
+    outcome const o = run(s.url(), std::string(R"({"steps": [
+        {"send": {"type": "pause"}},
+        {"expect": {"code": "forbidden", "message_contains": "/type"}},
+        {"send": {"type": "hello", "admin_token": ")") + admin_token + R"("}},
+        {"send": {"type": "pause"}},
+        {"expect": {"type": "ack"}},
+        {"send": {"type": "load_scene", "scene": {"name": "empty", "dt": 0.01}}},
+        {"expect": {"type": "ack"}},
+        {"send": {"type": "reset"}},
+        {"expect": {"type": "ack"}},
+        {"send": {"type": "resume"}},
+        {"expect": {"type": "ack"}}
+    ]})");
+    EXPECT_TRUE(o.result.passed) << o.log;
 }
 
 TEST(ScriptRunner, AMessageTheProtocolRefusesIsNotSent)

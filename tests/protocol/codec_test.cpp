@@ -76,6 +76,44 @@ TEST(Codec, EncodeWritesTypeFirstAndNothingMore)
               R"({"type":"remove","ref":4,"id":9})");
     EXPECT_EQ(encode(server_message{pong{.ref = 5, .tick = 6}}),
               R"({"type":"pong","ref":5,"tick":6})");
+    EXPECT_EQ(encode(pause{.ref = 1}), R"({"type":"pause","ref":1})");
+    EXPECT_EQ(encode(resume{.ref = 2}), R"({"type":"resume","ref":2})");
+    EXPECT_EQ(encode(reset{.ref = 3}), R"({"type":"reset","ref":3})");
+    EXPECT_EQ(encode(load_scene{.ref = 4, .scene = {R"({"name":"x","dt":0.5})"}}),
+              R"({"type":"load_scene","ref":4,"scene":{"name":"x","dt":0.5}})");
+}
+
+TEST(Codec, LoadSceneCarriesTheSceneObjectAsItCame)
+{
+    auto const decoded = decode(R"({"type": "load_scene", "ref": 7,
+        "scene": {"name": "z", "dt": 0.25, "bodies": [{"radius": 1e999999}]}})");
+    // A number beyond a double is refused by the JSON reader before the scene is looked at.
+    ASSERT_TRUE(decoded.failure);
+    EXPECT_EQ(decoded.failure->code, error_code::not_finite);
+
+    auto const good = decode(R"({"type": "load_scene", "ref": 7, "scene": {"b": 1, "a": [true]}})");
+    ASSERT_TRUE(good.message) << good.failure->message;
+    auto const& load = std::get<load_scene>(*good.message);
+    EXPECT_EQ(load.ref, 7U);
+    EXPECT_EQ(load.scene.text, R"({"b":1,"a":[true]})"); // key order kept
+}
+
+TEST(Codec, WelcomeAdminAndSnapshotPausedDefaultToFalse)
+{
+    json welcome_doc = json::parse(encode(samples::sample_welcome()));
+    EXPECT_EQ(welcome_doc["admin"], false);
+    EXPECT_FALSE(welcome_doc["limits"].contains("max_bodies_per_client"));
+    welcome_doc.erase("admin"); // a server that predates admins
+    auto const welcome_back = decode_server_message(welcome_doc.dump());
+    ASSERT_TRUE(welcome_back.message) << welcome_back.failure->message;
+    EXPECT_FALSE(std::get<welcome>(*welcome_back.message).admin);
+
+    auto const snapshot_back = decode_server_message(
+        R"({"type": "snapshot", "tick": 1, "time": 0.1, "bodies": {"id": [], "position": [],
+            "velocity": [], "radius": []}})");
+    ASSERT_TRUE(snapshot_back.message) << snapshot_back.failure->message;
+    EXPECT_FALSE(std::get<snapshot>(*snapshot_back.message).paused);
+    EXPECT_EQ(json::parse(encode(snapshot{.paused = true}))["paused"], true);
 }
 
 TEST(Codec, SnapshotBodiesAreColumns)
@@ -87,7 +125,7 @@ TEST(Codec, SnapshotBodiesAreColumns)
                                 .velocity = {0, 0, 0, 0, 0, -1},
                                 .radius = {0.5, 0.25}}};
     EXPECT_EQ(encode(s),
-              R"({"type":"snapshot","tick":2,"time":0.5,"bodies":{"id":[4,9],)"
+              R"({"type":"snapshot","tick":2,"time":0.5,"paused":false,"bodies":{"id":[4,9],)"
               R"("position":[1.0,2.0,3.0,4.0,5.0,6.0],"velocity":[0.0,0.0,0.0,0.0,0.0,-1.0],)"
               R"("radius":[0.5,0.25]}})");
 
@@ -284,7 +322,7 @@ std::vector<bad_case> bad_client_messages()
                  "/type: must be a string, got number 4", 3},
         bad_case{
             "unknown_type", R"({"type": "jump", "ref": 5})", error_code::unknown_type,
-            R"(/type: unknown message type "jump" (known: hello, spawn, impulse, remove, ping))",
+            R"(/type: unknown message type "jump" (known: hello, spawn, impulse, remove, ping, pause, resume, reset, load_scene))",
             5},
         bad_case{"server_type_from_client", R"({"type": "welcome"})", error_code::unknown_type,
                  R"(/type: unknown message type "welcome")"},
@@ -372,6 +410,14 @@ std::vector<bad_case> bad_client_messages()
         bad_case{"vector_of_two", R"({"type": "impulse", "ref": 2, "id": 1, "impulse": [0, 1]})",
                  error_code::bad_value,
                  "/impulse: must be an array of 3 numbers [x, y, z], got array of 2", 2},
+        bad_case{"scene_not_an_object", R"({"type": "load_scene", "ref": 3, "scene": "arena.json"})",
+                 error_code::wrong_type, R"(/scene: must be an object, got string "arena.json")", 3},
+        bad_case{"load_scene_without_scene", R"({"type": "load_scene", "ref": 4})",
+                 error_code::missing_field, "/scene: missing (required)", 4},
+        bad_case{"pause_without_ref", R"({"type": "pause"})", error_code::missing_field,
+                 "/ref: missing (required)"},
+        bad_case{"admin_token_as_a_number", R"({"type": "hello", "admin_token": 12345})",
+                 error_code::wrong_type, "/admin_token: must be a string, got number 12345"},
         bad_case{"unsupported_protocol", R"({"type": "hello", "protocol": 2})",
                  error_code::unsupported_protocol,
                  "/protocol: protocol 2 is not spoken here (this side speaks 1)"},

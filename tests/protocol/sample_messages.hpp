@@ -16,6 +16,7 @@ inline std::vector<client_message> client_messages()
     return {
         hello{},
         hello{.protocol = protocol_version, .name = "orbit-viewer"},
+        hello{.name = "operator", .admin_token = "s3cret-token"},
         spawn{.ref = 1, .body = {.position = {0.0, 0.0, 2.0}, .radius = 0.1, .mass = 2.5}},
         spawn{.ref = 2,
               .body = {.position = {1.0, -2.0, 3.5},
@@ -26,6 +27,13 @@ inline std::vector<client_message> client_messages()
         impulse{.ref = 3, .id = 17, .impulse = {0.0, 0.0, 0.25}},
         remove{.ref = 4, .id = 0},
         ping{.ref = max_safe_integer},
+        pause{.ref = 6},
+        resume{.ref = 7},
+        reset{.ref = 8},
+        load_scene{.ref = 9,
+                   .scene = {R"({"name":"drop","dt":0.01,"bodies":[{"position":[0,0,1],)"
+                             R"("radius":0.1,"mass":1}],"nested":{"a":[1,2.5,"x",null,true]}})"}},
+        load_scene{.ref = 10, .scene = {"{}"}},
     };
 }
 
@@ -61,7 +69,11 @@ inline std::vector<server_message> server_messages()
                 .dt = 1e-3,
                 .snapshot_rate = 7.5,
                 .scene = {.name = "", .bounds = {.radius = 0.0}},
-                .limits = {.max_message_bytes = 1, .max_bodies = 0, .commands_per_second = 0}},
+                .limits = {.max_message_bytes = 1,
+                           .max_bodies = 0,
+                           .commands_per_second = 0,
+                           .max_bodies_per_client = 50},
+                .admin = true},
         ack{.ref = 1, .tick = 1204, .id = 17},
         ack{.ref = 3, .tick = 1210},
         error{.ref = 1,
@@ -76,6 +88,7 @@ inline std::vector<server_message> server_messages()
                             .radius = {0.1, 0.1, 0.0}}},
         snapshot{.tick = 7,
                  .time = 0.07,
+                 .paused = true,
                  .bodies = {.id = {0, 1},
                             .position = {1.0, 2.0, 3.0, 4.0, 5.0, 6.0},
                             .velocity = {-1.0, -2.0, -3.0, -4.0, -5.0, -6.0},

@@ -244,6 +244,25 @@ std::vector<hostile_case> catalogue()
         {"remove of an unknown body", R"({"type":"remove","ref":88,"id":424242})", refused("unknown_body", "/id", 88)},
         {"id 0", R"({"type":"impulse","ref":89,"id":0,"impulse":[0,0,1]})", refused("unknown_body", "/id", 89)},
 
+        // Admin commands and admin tokens from a client that is not an admin (the lab has no
+        // admin token, so nobody is), and admin commands that are malformed.
+        {"pause from a non-admin", R"({"type":"pause","ref":100})", refused("forbidden", "/type", 100)},
+        {"resume from a non-admin", R"({"type":"resume","ref":101})", refused("forbidden", "/type", 101)},
+        {"reset from a non-admin", R"({"type":"reset","ref":102})", refused("forbidden", "/type", 102)},
+        {"load_scene from a non-admin", R"({"type":"load_scene","ref":103,"scene":{"name":"x","dt":1}})",
+         refused("forbidden", "/type", 103)},
+        {"remove of the scene's body by a non-admin", R"({"type":"remove","ref":104,"id":1})",
+         refused("forbidden", "/id", 104)},
+        {"hello with an admin token, none configured", R"({"type":"hello","admin_token":"guess"})",
+         refused("forbidden", "/admin_token")},
+        {"hello with an admin token of 60000 bytes",
+         R"({"type":"hello","admin_token":")" + std::string(60000, 'a') + R"("})", refused("forbidden", "/admin_token")},
+        {"admin token as a number", R"({"type":"hello","admin_token":1234})", refused("wrong_type", "/admin_token")},
+        {"load_scene with a file name", R"({"type":"load_scene","ref":105,"scene":"arena.json"})",
+         refused("wrong_type", "/scene", 105)},
+        {"load_scene without a scene", R"({"type":"load_scene","ref":106})", refused("missing_field", "/scene", 106)},
+        {"pause without a ref", R"({"type":"pause"})", refused("missing_field", "/ref")},
+
         // A flood: the burst passes, every command beyond it is refused.
         {"command flood", R"({"type":"ping","ref":90})", rate_limited_after{command_burst}, false, command_burst + 10},
     };

@@ -134,8 +134,12 @@ fs::path arena_checkpoint(fs::path const& dir, std::uint64_t& spawned, std::uint
     server_options o;
     o.state_dir = dir;
     o.checkpoint_interval = std::chrono::hours(1); // only the final one
+    o.admin_token = "persistence-test-admin-token";
     test_support::in_process_server s(o);
     ws_client c(s.port(), "/ws");
+    c.next("welcome");
+    // Body 7 came with the scene: only an admin may remove it.
+    c.send(json{{"type", "hello"}, {"admin_token", o.admin_token}});
     c.next("welcome");
     c.send(spawn_at(1, {0.1 + 0.2, 1.0 / 3.0, 3.5}, {0.7, -1e-300, 3.0}));
     spawned = ack_of(c, 1);

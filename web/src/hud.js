@@ -11,6 +11,8 @@ const plain_words = {
   outside_world: 'that point is outside the world',
   overlaps_wall: 'the sphere would cross a wall or an obstacle',
   room_full: 'the room is full',
+  too_many_bodies: 'you have as many spheres as one visitor may have; remove one first',
+  forbidden: 'only an admin may do that',
   rate_limited: 'too many commands at once, try again in a moment',
   unknown_body: 'that sphere is no longer in the world',
   bad_value: 'a value is out of range',

@@ -15,6 +15,7 @@ export function snapshot_from_message(message, received_at) {
   const snapshot = {
     tick: message.tick,
     time: message.time,
+    paused: message.paused === true, // the world stands still: time does not move on
     received_at, // local seconds
     count: bodies.id.length,
     id: Float64Array.from(bodies.id),
@@ -90,9 +91,17 @@ export class SnapshotBuffer {
     this.snapshots.length = 0;
   }
 
-  /** Adds a snapshot; one not newer than the newest held is ignored. Returns whether kept. */
+  /**
+   * Adds a snapshot; one not newer than the newest held is ignored, except that a later tick
+   * at the same time (a paused room, where commands still change the world) replaces the
+   * newest. Returns whether kept.
+   */
   push(snapshot) {
     const newest = this.newest;
+    if (newest && snapshot.time === newest.time && snapshot.tick > newest.tick) {
+      this.snapshots[this.snapshots.length - 1] = snapshot;
+      return true;
+    }
     if (newest && snapshot.time <= newest.time) return false;
     this.snapshots.push(snapshot);
     while (this.snapshots.length > this.capacity) this.snapshots.shift();
@@ -126,7 +135,7 @@ export class SnapshotBuffer {
     frame.mass = b.mass;
     frame.charge = b.charge;
     if (a) this.interpolate(a, b, t);
-    else this.extrapolate(b, Math.min(t - b.time, this.max_extrapolation));
+    else this.extrapolate(b, b.paused ? 0 : Math.min(t - b.time, this.max_extrapolation));
     return frame;
   }
 

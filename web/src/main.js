@@ -42,6 +42,7 @@ const state = {
   parser: null, // where snapshots are parsed: 'worker' or 'main thread'
   frames: 0, // frames drawn with bodies in them
   welcomes: 0,
+  paused: false, // an admin paused the room: snapshots keep coming, time stands still
   acks: [], // the last few: {ref, tick, id, command}
   errors: [], // the last few: {ref, code, message, command}
 };
@@ -128,6 +129,7 @@ function on_welcome(message) {
 
 function on_snapshot(message, snapshot) {
   const now = snapshot.received_at;
+  state.paused = snapshot.paused;
   if (!buffer.push(snapshot)) return;
   clock?.on_snapshot(snapshot.time, now);
   snapshot_arrivals.push(now);

@@ -136,6 +136,21 @@ test('the buffer holds at most its capacity and ignores snapshots older than its
   assert.equal(buffer.newest.tick, 999);
 });
 
+test('a paused room: a later tick at the same time replaces the newest, and is drawn still', () => {
+  const buffer = buffer_of([0, interval], projectile);
+  const paused = (tick, body) => ({ ...message(tick, interval, [body]), paused: true });
+  const still = { ...projectile.at(interval), id: 7 };
+  assert.equal(buffer.push(snapshot_from_message(paused(3, still), 1)), true);
+  const pushed = { ...still, v: [0, 0, 1] }; // an impulse while paused
+  assert.equal(buffer.push(snapshot_from_message(paused(4, pushed), 2)), true);
+  assert.equal(buffer.length, 2);
+  assert.equal(buffer.newest.tick, 4);
+  assert.equal(buffer.push(snapshot_from_message(paused(4, pushed), 3)), false, 'the same tick again');
+  // Long after the pause began the body is drawn where it stands, not carried along.
+  assert_close(position_at(buffer, interval + 5), still.p, 0, 'paused body');
+  assert.deepEqual(Array.from(buffer.sample(interval + 5).velocity.subarray(0, 3)), [0, 0, 1]);
+});
+
 test('past the newest snapshot it extrapolates for at most max_extrapolation, before the oldest it holds', () => {
   const buffer = buffer_of([0, interval], projectile, { max_extrapolation: 0.1 });
   const newest = projectile.at(interval);
