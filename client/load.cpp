@@ -472,7 +472,9 @@ load_report run_load(load_options options)
             finish_leaving(i);
             return true;
         });
-        if (next_due > now)
+        // The churn above may have just taken the due client out of sending (next_send at
+        // the end of time): look at it again, not at next_due.
+        if (due == clients.end() || due->next_send > now)
             continue;
         auto& c = *due;
         try {
