@@ -562,8 +562,41 @@ std::optional<std::uint64_t> readable_ref(json const& doc)
     }
 }
 
-/// A second look at text that did not parse: where it failed (a JSON pointer), whether the
-/// failure was a number beyond double range, and the top-level `ref` if it came first.
+/// Objects and arrays may nest this deep in a message; no message needs more than about six
+/// levels (a load_scene's generator region). Deeper text is refused before it becomes a
+/// document: copying or printing a document recurses once per level, and 20,000 levels in
+/// a 64 kB frame overflowed a server thread's stack.
+constexpr std::size_t max_nesting = 32;
+
+/// True when objects and arrays in `text` nest deeper than max_nesting (brackets inside
+/// strings do not count). A scan of the bytes, much cheaper than a parse.
+bool nests_too_deep(std::string_view text)
+{
+    std::size_t depth = 0;
+    bool in_string = false, escaped = false;
+    for (char const c : text) {
+        if (in_string) {
+            if (escaped)
+                escaped = false;
+            else if (c == '\\')
+                escaped = true;
+            else if (c == '"')
+                in_string = false;
+        } else if (c == '"') {
+            in_string = true;
+        } else if (c == '[' || c == '{') {
+            if (++depth > max_nesting)
+                return true;
+        } else if ((c == ']' || c == '}') && depth > 0) {
+            --depth;
+        }
+    }
+    return false;
+}
+
+/// A second look at text that did not parse, or nests too deep: where it failed (a JSON
+/// pointer), whether the failure was a number beyond double range, and the top-level `ref`
+/// if it came first.
 class failure_locator final : public nlohmann::json_sax<json>
 {
   public:
@@ -659,6 +692,12 @@ class failure_locator final : public nlohmann::json_sax<json>
     bool open(bool is_array)
     {
         begin_value();
+        if (frames_.size() == max_nesting) {
+            code_ = error_code::bad_message;
+            message_ = shortened(pointer(), 200) + ": nested deeper than " +
+                       std::to_string(max_nesting) + " levels";
+            return false;
+        }
         frames_.push_back({.is_array = is_array});
         return true;
     }
@@ -691,6 +730,11 @@ class failure_locator final : public nlohmann::json_sax<json>
 
 template <class Variant> decode_result<Variant> decode_as(std::string_view text)
 {
+    if (nests_too_deep(text)) {
+        failure_locator locator;
+        json::sax_parse(text.begin(), text.end(), &locator);
+        return {.failure = locator.failure()};
+    }
     json const doc = json::parse(text.begin(), text.end(), nullptr, /*allow_exceptions=*/false);
     if (doc.is_discarded()) {
         failure_locator locator;

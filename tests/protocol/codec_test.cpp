@@ -244,9 +244,13 @@ TEST(Decode, NeverThrowsOnDeepOrOddInput)
     std::string const deep_type =
         R"({"type": )" + std::string(50000, '[') + std::string(50000, ']') + "}";
     EXPECT_EQ(decode(deep_type).failure.value().code, error_code::bad_message);
+    // Nesting deeper than 32 levels is refused before the text is parsed to its end, so an
+    // unclosed run of brackets is too deep before it is unfinished.
     auto const unclosed = decode(std::string(100000, '['));
-    EXPECT_EQ(unclosed.failure.value().code, error_code::bad_json);
+    EXPECT_EQ(unclosed.failure.value().code, error_code::bad_message);
     EXPECT_LT(unclosed.failure.value().message.size(), 500U) << "the pointer is cut short";
+    EXPECT_EQ(decode(std::string(20, '[')).failure.value().code, error_code::bad_json)
+        << "shallow and unfinished: not valid JSON";
     EXPECT_EQ(decode(std::string("\0\0\0", 3)).failure.value().code, error_code::bad_json);
     EXPECT_EQ(decode("{}{}").failure.value().code, error_code::bad_json);
     EXPECT_EQ(decode("\xEF\xBB\xBF{\"type\": \"ping\", \"ref\": 1}").failure, std::nullopt)
