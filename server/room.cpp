@@ -67,9 +67,11 @@ std::string describe(protocol::vec3 const& v) { return fmt::format("[{}, {}, {}]
 
 } // namespace
 
-room::room(net::io_context& io, std::string name, scene::scene const& s, settings config,
-           std::string scene_fingerprint, std::optional<checkpoint> restored)
-    : name_(std::move(name)), settings_(std::move(config)), strand_(net::make_strand(io)),
+room::room(net::io_context& ticks, net::any_io_executor background, std::string name,
+           scene::scene const& s, settings config, std::string scene_fingerprint,
+           std::optional<checkpoint> restored)
+    : name_(std::move(name)), settings_(std::move(config)), strand_(net::make_strand(ticks)),
+      background_(std::move(background)),
       timer_(strand_),
       period_(std::chrono::duration_cast<clock::duration>(
           std::chrono::duration<double>(1.0 / settings_.tick_rate))),
@@ -174,13 +176,13 @@ void room::on_checkpoint_timer(beast::error_code ec)
         return schedule_next_checkpoint();
     }
     // Only the copy is taken here, between two ticks (0.2 ms for 10,000 bodies); encoding
-    // and fsync (the most of the cost) run on another worker, so the tick does not wait. One
+    // and fsync (the most of the cost) run in the background, so the tick does not wait. One
     // write at a time: when the last is still under way, this interval's is skipped.
     if (!checkpoint_writing_.exchange(true)) {
         auto const started = clock::now();
         checkpoint c = take_checkpoint();
         auto const take_cost = clock::now() - started;
-        net::post(strand_.get_inner_executor(),
+        net::post(background_,
                   [self = shared_from_this(), c = std::move(c), take_cost] {
                       self->write(c, take_cost);
                       self->checkpoint_writing_ = false;
@@ -214,7 +216,11 @@ void room::stop()
 
 void room::join(std::shared_ptr<websocket_session> session)
 {
-    net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
+    // The room's handlers hold sessions weakly (server.cpp: its context outlives theirs).
+    net::post(strand_, [self = shared_from_this(), weak = std::weak_ptr(session)] {
+        auto const session = weak.lock();
+        if (!session)
+            return;
         // Counted before the welcome goes out, so a client that has its welcome is counted.
         self->sessions_.push_back({session->client_id(), session});
         self->counters_.sessions = self->sessions_.size();
@@ -224,7 +230,10 @@ void room::join(std::shared_ptr<websocket_session> session)
 
 void room::grant_admin(std::shared_ptr<websocket_session> session)
 {
-    net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
+    net::post(strand_, [self = shared_from_this(), weak = std::weak_ptr(session)] {
+        auto const session = weak.lock();
+        if (!session)
+            return;
         for (member& m : self->sessions_)
             if (m.client_id == session->client_id()) {
                 m.admin = true;
@@ -246,13 +255,16 @@ std::shared_ptr<std::string const> room::welcome_for(member const& m) const
 void room::submit(std::shared_ptr<websocket_session> from, protocol::client_message message,
                   bool admin)
 {
-    net::post(strand_, [self = shared_from_this(), from = std::move(from),
+    net::post(strand_, [self = shared_from_this(), weak = std::weak_ptr(from),
                         message = std::move(message), admin]() mutable {
+        auto const sender = weak.lock();
+        if (!sender)
+            return; // the client left: nobody would hear the answer
         if (auto const* ping = std::get_if<protocol::ping>(&message)) {
-            from->send_reply(share(protocol::encode(protocol::pong{ping->ref, self->counters_.ticks})));
+            sender->send_reply(share(protocol::encode(protocol::pong{ping->ref, self->counters_.ticks})));
             return;
         }
-        self->pending_commands_.push_back({from, std::move(message), admin});
+        self->pending_commands_.push_back({std::move(weak), std::move(message), admin});
     });
 }
 

@@ -57,8 +57,11 @@ public:
     /// world, ids and tick. `scene_fingerprint` is written into this room's checkpoints.
     /// Throws physics::singular_force_error if it cannot start, checkpoint_error for a
     /// checkpoint body the world refuses.
-    room(net::io_context& io, std::string name, scene::scene const& s, settings config,
-         std::string scene_fingerprint = {}, std::optional<checkpoint> restored = {});
+    /// `ticks` runs the room's strand (its ticks, commands and snapshots); `background` runs
+    /// what must not hold up a tick (writing a checkpoint).
+    room(net::io_context& ticks, net::any_io_executor background, std::string name,
+         scene::scene const& s, settings config, std::string scene_fingerprint = {},
+         std::optional<checkpoint> restored = {});
 
     std::string const& name() const { return name_; }
     room_counters const& counters() const { return counters_; }
@@ -136,6 +139,7 @@ private:
     std::string name_;
     settings settings_;
     net::strand<net::io_context::executor_type> strand_;
+    net::any_io_executor background_;
     net::steady_timer timer_;
     clock::duration period_;
     clock::time_point next_tick_at_;

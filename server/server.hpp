@@ -13,7 +13,7 @@ namespace kugel::server {
 class room;
 
 /// The whole network server: rooms, the listener, and the threads that run them (one
-/// io_context, a thread per core; each room on its own strand).
+/// io_context with a thread per core for the sessions; each room on a thread of its own).
 class server
 {
 public:

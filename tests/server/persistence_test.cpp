@@ -166,7 +166,7 @@ TEST(Persistence, CheckpointRestoresBitIdenticalStateIdsAndTick)
 
     // A room made from it (never started, so nothing else touches it) holds the same state.
     net::io_context io;
-    room restored(io, "default", arena(), {}, saved.scene_fingerprint, saved);
+    room restored(io, io.get_executor(), "default", arena(), {}, saved.scene_fingerprint, saved);
     checkpoint const again = restored.take_checkpoint();
     expect_identical(saved, again);
     EXPECT_EQ(encode_checkpoint(again), text); // byte for byte
