@@ -123,7 +123,7 @@ TEST(Broadphase, AllKindsAgreeWithBruteForceOnRandomScenes)
 {
     // Sizes from the trivial to a few thousand; the side is chosen so that the scenes hold
     // a few pairs per box, with radii spanning a factor of 20.
-    for (std::size_t count : {0, 1, 2, 3, 10, 100, 2000}) {
+    for (std::size_t const count : std::initializer_list<std::size_t>{0, 1, 2, 3, 10, 100, 2000}) {
         for (std::uint64_t seed = 1; seed <= 5; ++seed) {
             SCOPED_TRACE("count " + std::to_string(count) + " seed " + std::to_string(seed));
             double const side = 0.5 * std::cbrt(static_cast<double>(count) + 1.0);

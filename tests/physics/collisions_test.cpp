@@ -349,9 +349,15 @@ world settled_pile(collision_mode mode, broadphase_kind broadphase)
     add_box(w, 1.0);
     std::mt19937_64 rng(77);
     auto unit = [&] { return static_cast<double>(rng() >> 11U) * 0x1.0p-53; };
-    for (int i = 0; i < 200; ++i)
+    for (int i = 0; i < 200; ++i) {
+        // Drawn one statement at a time: the order in which a call's arguments are evaluated
+        // is the compiler's choice, and GCC and Clang choose differently.
+        double const mass = 1.0 + unit();
+        double const vx = unit() - 0.5;
+        double const vy = unit() - 0.5;
         w.add_body(ball({-0.85 + 0.17 * (i % 10), -0.85 + 0.17 * ((i / 10) % 10), -0.5 + 0.17 * (i / 100) + 0.3},
-                        {unit() - 0.5, unit() - 0.5, 0.0}, 0.08, 1.0 + unit()));
+                        {vx, vy, 0.0}, 0.08, mass));
+    }
     for (int i = 0; i < 300; ++i)
         w.step(1.0 / 60.0);
     return w;
