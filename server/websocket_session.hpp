@@ -65,7 +65,7 @@ private:
     void close_with(websocket::close_code code, std::string_view reason);
     void drop_connection(char const* why);
 
-    websocket::stream<beast::tcp_stream> ws_;
+    websocket::stream<beast::tcp_stream, false> ws_; ///< false: no permessage-deflate, not compiled
     beast::flat_buffer buffer_;
     std::shared_ptr<room> room_;
     client_limits limits_;
