@@ -13,6 +13,10 @@ namespace kugel::physics {
 void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats);
+void resolve_discrete(collision_settings const& settings, std::span<wall const> walls,
+                      std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                      double h, collision_workspace& workspace, collision_stats& stats,
+                      parallel_for* loops);
 
 namespace {
 
@@ -51,11 +55,11 @@ bool beyond_walls(std::span<wall const> walls, vec3 const& x, double reach)
     return beyond;
 }
 
-/// Lists sphere i among those the discrete response moved (once).
-void note_moved(collision_workspace& ws, std::uint32_t i)
+/// Lists sphere i in `moved` unless a discrete response moved it before in this step.
+void note_moved(std::span<std::uint8_t> was_moved, std::vector<std::uint32_t>& moved, std::uint32_t i)
 {
-    if (std::exchange(ws.was_moved[i], std::uint8_t{1}) == 0)
-        ws.moved.push_back(i);
+    if (std::exchange(was_moved[i], std::uint8_t{1}) == 0)
+        moved.push_back(i);
 }
 
 /// Pushes sphere i out of every wall it is inside and removes its velocity into that wall.
@@ -79,25 +83,32 @@ void clamp_body_to_walls(std::span<wall const> walls, collision_bodies const& b,
 /// Discrete walls: a sphere found inside a wall at the end of the step is taken back to the
 /// time it crossed, found by the lecture's linear interpolation between tᵢ and tᵢ₊₁, bounces
 /// there, and finishes the step on its new path. Up to four walls per step (a corner).
+/// Bodies [begin, end), each on its own; also notes each one's free acceleration.
 void resolve_walls_discrete(collision_settings const& settings, std::span<wall const> walls,
-                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
-                            collision_workspace& ws, collision_stats& stats)
+                            collision_bodies const& b, double h, std::span<vec3> free_a,
+                            std::size_t begin, std::size_t end, std::span<std::uint8_t> was_moved,
+                            wall_chunk& out)
 {
-    for (std::uint32_t i = 0; i < b.x.size(); ++i) {
+    out.moved.clear();
+    out.responses = 0;
+    for (std::size_t k = begin; k < end; ++k) {
+        auto const i = static_cast<std::uint32_t>(k);
+        free_a[i] = (b.v[i] - b.v0[i]) / h;
+        was_moved[i] = 0;
         double const r = b.radius[i];
         if (r <= 0.0 || b.inverse_mass[i] == 0.0 || clear_of_walls(walls, b.x[i], r))
             continue;
         body_path path{b.x0[i], b.v0[i], free_a[i], 0.0};
-        vec3 end = b.x[i];
+        vec3 end_position = b.x[i];
         bool bounced = false;
         for (int bounce = 0; bounce < 4; ++bounce) {
             wall const* hit = nullptr;
             double hit_time = std::numeric_limits<double>::infinity();
             for (wall const& w : walls) {
-                if (w.surface.normal.dot(end) >= w.surface.offset + r)
+                if (w.surface.normal.dot(end_position) >= w.surface.offset + r)
                     continue;
                 double const t = std::clamp(
-                    plane_contact_time_linear(w.surface, r, path.x, path.t, end, h), path.t, h);
+                    plane_contact_time_linear(w.surface, r, path.x, path.t, end_position, h), path.t, h);
                 if (t < hit_time) {
                     hit_time = t;
                     hit = &w;
@@ -108,14 +119,14 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
             path.advance_to(hit_time);
             if (detail::respond_to_surface(path, hit->surface.normal, hit->surface.offset + r,
                                            hit->damping, hit->friction, settings, h))
-                ++stats.wall_contacts;
-            end = path.position_at(h);
+                ++out.responses;
+            end_position = path.position_at(h);
             bounced = true;
         }
         if (bounced) {
-            b.x[i] = end;
+            b.x[i] = end_position;
             b.v[i] = path.velocity_at(h);
-            note_moved(ws, i);
+            note_moved(was_moved, out.moved, i);
         }
     }
 }
@@ -143,7 +154,7 @@ void resolve_obstacles_discrete(collision_settings const& settings, std::span<wa
             b.x[i] = path.x;
             b.v[i] = path.v;
             clamp_body_to_walls(walls, b, i);
-            note_moved(ws, i);
+            note_moved(ws.was_moved, ws.moved, i);
         }
     }
 }
@@ -164,41 +175,92 @@ void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies co
     }
 }
 
-/// Discrete sphere pairs. The broadphase's candidates at the end positions are the near
-/// pairs; those that touch are the step's contacts. Velocity passes: each contact that
-/// approaches exchanges momentum along its normal (restitution e, none below the rest
-/// threshold), and a sphere pressed into a wall it touches loses that normal speed; repeated,
-/// so a stack passes its weight down to the floor within the step instead of sinking into
-/// itself. Position passes: every near pair that overlaps by then is pushed apart in
-/// proportion to the inverse masses (near, not only the contacts: a push can bring two
-/// neighbours into overlap), and walls push back in every pass, so stacks settle on them.
-/// After the broadphase, only near pairs are visited, and only the spheres whose velocity or
-/// position a pass changed are checked against the walls (each sphere on its own, so order
-/// does not matter).
-void resolve_pairs_discrete(collision_settings const& settings, std::span<wall const> walls,
-                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
-                            collision_workspace& ws, collision_stats& stats)
+/// Fills the slabs' near pairs: the pairs whose boxes overlap at the end positions, each in
+/// the slab of its first sphere in the grid's cell order, in that order. The grid finds them
+/// itself when the scene asks for it; another broadphase's pairs are put in the same order,
+/// so that the broadphase changes the cost only. When the grid cannot hold the scene, one
+/// slab holds every pair in slot order. Returns the number of slabs.
+std::size_t find_near_pairs(collision_settings const& settings, collision_bodies const& b,
+                            collision_workspace& ws, parallel_for* loops)
 {
+    bool const gridded = ws.grid.build(b.x, b.radius, loops);
+    std::size_t const slabs = gridded ? ws.grid.slab_count() : 1;
+    ws.slabs.resize(slabs);
+    if (gridded && settings.broadphase == broadphase_kind::uniform_grid) {
+        run_loop(loops, slabs, [&](std::size_t s) { ws.grid.near_pairs(s, ws.slabs[s].near); });
+        return slabs;
+    }
     sphere_boxes(b.x, b.radius, ws);
     find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
-    auto& near = ws.pairs;
-    auto& contacts = ws.contacts;
-    auto& touched = ws.touched;
-    contacts.clear();
-    touched.clear();
-    ws.mark.assign(b.x.size(), 0);
-    std::uint32_t stamp = 1;
-    for (box_pair& p : near) {
-        std::uint32_t const i = ws.members[p.a], j = ws.members[p.b];
-        p = {i, j}; // from box indices to body slots
-        double const reach = b.radius[i] + b.radius[j];
-        if ((b.x[i] - b.x[j]).squaredNorm() > reach * reach)
-            continue;
-        contacts.push_back(p);
-        for (std::uint32_t k : {i, j})
-            if (std::exchange(ws.mark[k], stamp) != stamp)
-                touched.push_back(k); // the spheres whose velocity the passes may change
+    for (box_pair& p : ws.pairs)
+        p = {ws.members[p.a], ws.members[p.b]}; // from box indices to body slots
+    if (!gridded) {
+        ws.slabs[0].near.swap(ws.pairs);
+        return slabs;
     }
+    auto const rank = ws.grid.rank();
+    auto const in_cell_order = [&](box_pair const& p) {
+        std::uint32_t const a = rank[p.a], c = rank[p.b];
+        return box_pair{std::min(a, c), std::max(a, c)};
+    };
+    std::sort(ws.pairs.begin(), ws.pairs.end(), [&](box_pair const& p, box_pair const& q) {
+        return in_cell_order(p) < in_cell_order(q);
+    });
+    for (contact_slab& slab : ws.slabs)
+        slab.near.clear();
+    for (box_pair const& p : ws.pairs)
+        ws.slabs[ws.grid.slab_of(in_cell_order(p).a)].near.push_back(p);
+    return slabs;
+}
+
+/// Discrete sphere pairs. The near pairs at the end positions are found first; those that
+/// touch are the step's contacts. Velocity passes: each contact that approaches exchanges
+/// momentum along its normal (restitution e, none below the rest threshold), and a sphere
+/// pressed into a wall it touches loses that normal speed; repeated, so a stack passes its
+/// weight down to the floor within the step instead of sinking into itself. Position passes:
+/// every near pair that overlaps by then is pushed apart in proportion to the inverse masses
+/// (near, not only the contacts: a push can bring two neighbours into overlap), and walls
+/// push back in every pass, so stacks settle on them. Only the spheres whose velocity or
+/// position a pass changed are checked against the walls (each sphere on its own, so order
+/// does not matter).
+///
+/// Pairs are visited slab by slab, the even slabs first and then the odd ones, each in cell
+/// order (sphere_grid.hpp). The slabs of one parity share no sphere, so they run at the same
+/// time and the outcome is that order's, whatever the number of threads. A sphere listed by
+/// one slab in a pass is marked, so that no other slab lists it again.
+void resolve_pairs_discrete(collision_settings const& settings, std::span<wall const> walls,
+                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
+                            collision_workspace& ws, collision_stats& stats, parallel_for* loops)
+{
+    std::size_t const slabs = find_near_pairs(settings, b, ws, loops);
+    auto const by_parity = [&](auto const& work) {
+        for (std::size_t parity = 0; parity < 2; ++parity)
+            run_loop(loops, (slabs + 1 - parity) / 2,
+                     [&](std::size_t k) { work(ws.slabs[2 * k + parity]); });
+    };
+    auto const each_slab = [&](auto const& work) {
+        run_loop(loops, slabs, [&](std::size_t s) { work(ws.slabs[s]); });
+    };
+    std::uint32_t stamp = 1;
+    auto const list_once = [&](contact_slab& slab, std::uint32_t k) {
+        if (std::exchange(ws.mark[k], stamp) != stamp)
+            slab.touched.push_back(k);
+    };
+
+    by_parity([&](contact_slab& slab) {
+        slab.contacts.clear();
+        slab.touched.clear(); // the spheres whose velocity the passes may change
+        slab.moved.clear();
+        slab.responses = 0;
+        for (box_pair const& p : slab.near) {
+            double const reach = b.radius[p.a] + b.radius[p.b];
+            if ((b.x[p.a] - b.x[p.b]).squaredNorm() > reach * reach)
+                continue;
+            slab.contacts.push_back(p);
+            list_once(slab, p.a);
+            list_once(slab, p.b);
+        }
+    });
 
     auto normal_of = [&](std::size_t i, std::size_t j, double& gap) {
         vec3 const d = b.x[i] - b.x[j];
@@ -207,47 +269,56 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
         return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
     };
     for (int pass = 0; pass < std::max(settings.velocity_iterations, 1); ++pass) {
-        for (box_pair const& c : contacts) {
-            std::size_t const i = c.a, j = c.b;
-            double gap = 0.0;
-            vec3 const n = normal_of(i, j, gap);
-            double const closing = (b.v[i] - b.v[j]).dot(n);
-            if (closing >= 0.0)
-                continue;
-            double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
-            double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
-            auto const w = collide_spheres(b.v[i], b.inverse_mass[i], b.v[j], b.inverse_mass[j], n, e);
-            b.v[i] = w.first;
-            b.v[j] = w.second;
-            stats.sphere_contacts += pass == 0 ? 1U : 0U;
-        }
-        for (std::uint32_t k : touched)
-            stop_body_at_touched_walls(walls, b, k);
+        by_parity([&](contact_slab& slab) {
+            for (box_pair const& c : slab.contacts) {
+                std::size_t const i = c.a, j = c.b;
+                double gap = 0.0;
+                vec3 const n = normal_of(i, j, gap);
+                double const closing = (b.v[i] - b.v[j]).dot(n);
+                if (closing >= 0.0)
+                    continue;
+                double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
+                double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
+                auto const w = collide_spheres(b.v[i], b.inverse_mass[i], b.v[j], b.inverse_mass[j], n, e);
+                b.v[i] = w.first;
+                b.v[j] = w.second;
+                slab.responses += pass == 0 ? 1U : 0U;
+            }
+        });
+        each_slab([&](contact_slab& slab) {
+            for (std::uint32_t k : slab.touched)
+                stop_body_at_touched_walls(walls, b, k);
+        });
     }
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
         ++stamp;
-        touched.clear(); // now: the spheres this pass moved
-        for (box_pair const& c : near) {
-            std::size_t const i = c.a, j = c.b;
-            double const reach = b.radius[i] + b.radius[j];
-            if ((b.x[i] - b.x[j]).squaredNorm() >= reach * reach)
-                continue; // most near pairs are apart: no square root for them
-            double const total = b.inverse_mass[i] + b.inverse_mass[j];
-            double gap = 0.0;
-            vec3 const n = normal_of(i, j, gap);
-            if (gap >= 0.0 || total == 0.0)
-                continue;
-            b.x[i] -= (gap * b.inverse_mass[i] / total) * n;
-            b.x[j] += (gap * b.inverse_mass[j] / total) * n;
-            for (std::uint32_t k : {c.a, c.b})
-                if (std::exchange(ws.mark[k], stamp) != stamp)
-                    touched.push_back(k);
-        }
-        for (std::uint32_t k : touched) {
-            clamp_body_to_walls(walls, b, k);
-            note_moved(ws, k);
-        }
+        by_parity([&](contact_slab& slab) {
+            slab.touched.clear(); // now: the spheres this pass moved
+            for (box_pair const& c : slab.near) {
+                std::size_t const i = c.a, j = c.b;
+                double const reach = b.radius[i] + b.radius[j];
+                if ((b.x[i] - b.x[j]).squaredNorm() >= reach * reach)
+                    continue; // most near pairs are apart: no square root for them
+                double const total = b.inverse_mass[i] + b.inverse_mass[j];
+                double gap = 0.0;
+                vec3 const n = normal_of(i, j, gap);
+                if (gap >= 0.0 || total == 0.0)
+                    continue;
+                b.x[i] -= (gap * b.inverse_mass[i] / total) * n;
+                b.x[j] += (gap * b.inverse_mass[j] / total) * n;
+                list_once(slab, c.a);
+                list_once(slab, c.b);
+            }
+        });
+        each_slab([&](contact_slab& slab) {
+            for (std::uint32_t k : slab.touched) {
+                clamp_body_to_walls(walls, b, k);
+                note_moved(ws.was_moved, slab.moved, k);
+            }
+        });
     }
+    for (contact_slab const& slab : ws.slabs)
+        stats.sphere_contacts += slab.responses;
 }
 
 } // namespace
@@ -264,34 +335,50 @@ std::string_view name(collision_mode mode) { return mode_names[static_cast<std::
 
 void resolve_discrete(collision_settings const& settings, std::span<wall const> walls,
                       std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                      double h, collision_workspace& workspace, collision_stats& stats)
+                      double h, collision_workspace& workspace, collision_stats& stats,
+                      parallel_for* loops)
 {
-    // Each body's acceleration over the step, from free motion alone, before any response.
+    // Each body's acceleration over the step from free motion alone, before any response,
+    // is noted by the wall pass, which handles each body on its own: in chunks, any number
+    // at a time, gathered in chunk order.
+    std::size_t const n = bodies.x.size();
     auto& free_a = workspace.free_acceleration;
-    free_a.resize(bodies.x.size());
-    for (std::size_t i = 0; i < bodies.x.size(); ++i)
-        free_a[i] = (bodies.v[i] - bodies.v0[i]) / h;
+    free_a.resize(n);
+    workspace.was_moved.resize(n);
+    workspace.mark.assign(n, 0);
+    workspace.wall_chunks.resize(chunk_count(n));
+    run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
+        resolve_walls_discrete(settings, walls, bodies, h, free_a, begin, end, workspace.was_moved,
+                               workspace.wall_chunks[c]);
+    });
     workspace.moved.clear();
-    workspace.was_moved.assign(bodies.x.size(), 0);
-    resolve_walls_discrete(settings, walls, bodies, h, free_a, workspace, stats);
+    for (wall_chunk const& chunk : workspace.wall_chunks) {
+        workspace.moved.insert(workspace.moved.end(), chunk.moved.begin(), chunk.moved.end());
+        stats.wall_contacts += chunk.responses;
+    }
     resolve_obstacles_discrete(settings, walls, obstacles, bodies, h, free_a, workspace, stats);
-    resolve_pairs_discrete(settings, walls, bodies, h, free_a, workspace, stats);
+    resolve_pairs_discrete(settings, walls, bodies, h, free_a, workspace, stats, loops);
 }
 
 void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                        double h, collision_workspace& workspace, collision_stats& stats)
+                        double h, collision_workspace& workspace, collision_stats& stats,
+                        parallel_for* loops)
 {
     // Neither mode leaves a sphere inside a wall: both clamp at the end. Continuous mode clamps
     // every sphere. Discrete mode clamps the spheres its response moved (it also clamps inside
     // its position passes); every other sphere was clear of every wall when the wall pass
     // looked at it and has not moved since, so clamping it would change nothing. (Clamping a
     // bounced sphere before the pair passes instead of after them left stacks settling four
-    // times worse.)
+    // times worse.) Each moved sphere is in one of the lists, once.
     if (settings.mode == collision_mode::discrete) {
-        resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats);
+        resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats, loops);
         for (std::uint32_t i : workspace.moved)
             clamp_body_to_walls(walls, bodies, i);
+        run_loop(loops, workspace.slabs.size(), [&](std::size_t s) {
+            for (std::uint32_t i : workspace.slabs[s].moved)
+                clamp_body_to_walls(walls, bodies, i);
+        });
     } else if (settings.mode == collision_mode::continuous) {
         resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats);
         clamp_to_walls(walls, bodies);

@@ -1,4 +1,6 @@
 #include "physics/broadphase.hpp"
+#include "physics/sphere_grid.hpp"
+#include "physics/thread_pool.hpp"
 
 #include <gtest/gtest.h>
 
@@ -7,6 +9,7 @@
 #include <cstdlib>
 #include <new>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -336,6 +339,155 @@ TEST(Broadphase, SteadyStateCallsDoNotAllocate)
             EXPECT_EQ(allocation_count, 0);
         }
     }
+}
+
+} // namespace
+} // namespace kugel::physics
+
+namespace kugel::physics {
+namespace {
+
+/// The sphere grid's near pairs of every slab, checking on the way what the discrete step's
+/// threads rely on: each slab's pairs come in cell order, start in that slab and end in it or
+/// the next. Returned sorted by body slot, to compare with the broadphases.
+std::vector<box_pair> sphere_grid_pairs(std::vector<vec3> const& x, std::vector<double> const& r,
+                                        parallel_for* loops = nullptr)
+{
+    sphere_grid grid;
+    EXPECT_TRUE(grid.build(x, r, loops));
+    std::vector<box_pair> all, slab;
+    auto const rank = grid.rank();
+    for (std::size_t s = 0; s < grid.slab_count(); ++s) {
+        grid.near_pairs(s, slab);
+        box_pair previous{0, 0};
+        for (box_pair const& p : slab) {
+            EXPECT_LT(p.a, p.b);
+            box_pair const ranks{std::min(rank[p.a], rank[p.b]), std::max(rank[p.a], rank[p.b])};
+            EXPECT_TRUE(&p == slab.data() || previous < ranks);
+            previous = ranks;
+            EXPECT_EQ(grid.slab_of(ranks.a), s);
+            std::size_t const second = grid.slab_of(ranks.b);
+            EXPECT_TRUE(second == s || second == s + 1) << "slab " << s << " reaches " << second;
+        }
+        all.insert(all.end(), slab.begin(), slab.end());
+    }
+    std::sort(all.begin(), all.end());
+    return all;
+}
+
+/// What the broadphases find among the same spheres (radius > 0), by body slot.
+std::vector<box_pair> broadphase_pairs(std::vector<vec3> const& x, std::vector<double> const& r)
+{
+    std::vector<aabb> boxes;
+    std::vector<std::uint32_t> slot;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (r[i] > 0.0) {
+            boxes.push_back(aabb_of_sphere(x[i], r[i]));
+            slot.push_back(static_cast<std::uint32_t>(i));
+        }
+    }
+    std::vector<box_pair> pairs = expect_all_kinds_agree(boxes);
+    for (box_pair& p : pairs)
+        p = {slot[p.a], slot[p.b]};
+    return pairs;
+}
+
+// The discrete step's own grid must find exactly the broadphases' pairs: random scenes with
+// radii spanning a factor of 20, point masses (radius 0, never filed), duplicates, centres
+// on both sides of the origin and far from it, and exactly touching spheres on a lattice.
+TEST(SphereGrid, FindsTheBroadphasesPairs)
+{
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (std::size_t count : {1, 2, 10, 300, 3000}) {
+        for (vec3 const& offset : {vec3(0, 0, 0), vec3(-3, -1, -2), vec3(1e6, -1e6, 5e5)}) {
+            SCOPED_TRACE("count " + std::to_string(count));
+            double const side = 0.5 * std::cbrt(static_cast<double>(count) + 1.0);
+            std::vector<vec3> x;
+            std::vector<double> r;
+            for (std::size_t i = 0; i < count; ++i) {
+                x.push_back(offset + side * vec3(unit(rng), unit(rng), unit(rng)));
+                r.push_back(i % 17 == 3 ? 0.0 : 0.01 + 0.19 * unit(rng));
+                if (i % 29 == 5) { // a duplicate of the previous sphere
+                    x.push_back(x.back());
+                    r.push_back(r.back());
+                }
+            }
+            auto const pairs = sphere_grid_pairs(x, r);
+            EXPECT_EQ(pairs, broadphase_pairs(x, r));
+            if (count >= 300) {
+                EXPECT_GT(pairs.size(), count / 10); // not a vacuous comparison
+            }
+        }
+    }
+    std::vector<vec3> lattice;
+    std::vector<double> radii;
+    for (int i = 0; i < 12; ++i)
+        for (int j = 0; j < 12; ++j)
+            for (int k = 0; k < 12; ++k) {
+                lattice.push_back(0.1 * vec3(i, j, k) - vec3(0.55, 0.55, 0.55));
+                radii.push_back(0.05);
+            }
+    auto const touching = sphere_grid_pairs(lattice, radii);
+    EXPECT_GT(touching.size(), 3U * 11U * 12U * 12U / 2U); // not a vacuous comparison
+    EXPECT_EQ(touching, broadphase_pairs(lattice, radii));
+}
+
+TEST(SphereGrid, SameOrderWithAPoolOfThreads)
+{
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<vec3> x;
+    std::vector<double> r;
+    for (int i = 0; i < 20000; ++i) {
+        x.push_back(12.0 * vec3(unit(rng), unit(rng), unit(rng)));
+        r.push_back(0.05 + 0.05 * unit(rng));
+    }
+    thread_pool pool(2);
+    sphere_grid alone, shared;
+    ASSERT_TRUE(alone.build(x, r, nullptr));
+    ASSERT_TRUE(shared.build(x, r, &pool));
+    ASSERT_GT(alone.slab_count(), 2U);
+    EXPECT_TRUE(std::ranges::equal(alone.rank(), shared.rank()));
+    std::vector<box_pair> a, b;
+    for (std::size_t s = 0; s < alone.slab_count(); ++s) {
+        alone.near_pairs(s, a);
+        shared.near_pairs(s, b);
+        EXPECT_EQ(a, b);
+    }
+}
+
+// The grid declines what it cannot hold, and the discrete step then falls back to the
+// broadphases in slot order: no sphere, or one sphere flung so far that the table of
+// columns would be far larger than the spheres.
+TEST(SphereGrid, DeclinesScenesItCannotHold)
+{
+    sphere_grid grid;
+    std::vector<vec3> x = {vec3::Zero(), vec3(1, 0, 0)};
+    std::vector<double> r = {0.0, 0.0};
+    EXPECT_FALSE(grid.build(x, r, nullptr));
+    r = {0.1, 0.1};
+    EXPECT_TRUE(grid.build(x, r, nullptr));
+    x[1] = vec3(1e5, 1e5, 0);
+    EXPECT_FALSE(grid.build(x, r, nullptr));
+    x[1] = vec3(1e300, 0, 0);
+    EXPECT_FALSE(grid.build(x, r, nullptr));
+}
+
+TEST(ThreadPool, RunsEachIterationOnceAndRethrows)
+{
+    for (std::size_t threads : {1, 2, 3}) {
+        thread_pool pool(threads);
+        std::vector<int> runs(1000, 0);
+        for (int round = 0; round < 20; ++round)
+            pool.run(runs.size(), [&](std::size_t k) { ++runs[k]; });
+        EXPECT_TRUE(std::ranges::all_of(runs, [](int n) { return n == 20; }));
+        EXPECT_THROW(pool.run(100, [](std::size_t k) { if (k == 42) throw std::runtime_error("42"); }),
+                     std::runtime_error);
+        pool.run(3, [&](std::size_t k) { runs[k] = 0; }); // still usable after a throw
+        EXPECT_EQ(runs[0] + runs[1] + runs[2], 0);
+    }
+    EXPECT_THROW(thread_pool(0), std::invalid_argument);
 }
 
 } // namespace
