@@ -35,25 +35,57 @@ void sphere_boxes(std::span<vec3 const> x, std::span<double const> radius, colli
     }
 }
 
-/// True when a sphere of radius r at x is clear of every wall (n·x >= offset + r for all):
-/// the common case, tested without a branch per wall.
-bool clear_of_walls(std::span<wall const> walls, vec3 const& x, double r)
+/// The walls, with the axis-aligned ones (normal ±e_k, as make_plane stores them) also kept
+/// as bounds per coordinate: for those, n·x is ±x_k exactly, so "n·x >= offset + r for every
+/// wall" becomes two comparisons per axis, bit for bit the same test. Built once per step.
+class wall_set
 {
-    bool clear = true;
-    for (wall const& w : walls)
-        clear &= w.surface.normal.dot(x) >= w.surface.offset + r;
-    return clear;
-}
+public:
+    explicit wall_set(std::span<wall const> walls) : all(walls)
+    {
+        for (wall const& w : walls) {
+            vec3 const& n = w.surface.normal;
+            Eigen::Index axis = 0;
+            if (n.cwiseAbs().maxCoeff(&axis) == 1.0 && (n.array() == 0.0).count() == 2) {
+                (n[axis] > 0.0 ? below_ : above_)[axis] = std::max((n[axis] > 0.0 ? below_ : above_)[axis],
+                                                                   w.surface.offset);
+            } else {
+                oblique_.push_back(w);
+            }
+        }
+    }
 
-/// True when a sphere of radius r at x is farther than `reach` from every wall (n·x > offset
-/// + reach for all).
-bool beyond_walls(std::span<wall const> walls, vec3 const& x, double reach)
-{
-    bool beyond = true;
-    for (wall const& w : walls)
-        beyond &= w.surface.normal.dot(x) > w.surface.offset + reach;
-    return beyond;
-}
+    /// True when a sphere of radius r at x is clear of every wall (n·x >= offset + r for all):
+    /// the common case, tested without a branch per wall.
+    bool clear(vec3 const& x, double r) const
+    {
+        bool clear = (x.x() >= below_.x() + r) & (x.y() >= below_.y() + r) & (x.z() >= below_.z() + r) &
+                     (-x.x() >= above_.x() + r) & (-x.y() >= above_.y() + r) & (-x.z() >= above_.z() + r);
+        for (wall const& w : oblique_)
+            clear &= w.surface.normal.dot(x) >= w.surface.offset + r;
+        return clear;
+    }
+
+    /// True when a sphere at x is farther than `reach` from every wall (n·x > offset + reach
+    /// for all).
+    bool beyond(vec3 const& x, double reach) const
+    {
+        bool beyond = (x.x() > below_.x() + reach) & (x.y() > below_.y() + reach) &
+                      (x.z() > below_.z() + reach) & (-x.x() > above_.x() + reach) &
+                      (-x.y() > above_.y() + reach) & (-x.z() > above_.z() + reach);
+        for (wall const& w : oblique_)
+            beyond &= w.surface.normal.dot(x) > w.surface.offset + reach;
+        return beyond;
+    }
+
+    std::span<wall const> all;
+
+private:
+    static constexpr double none = -std::numeric_limits<double>::infinity();
+    vec3 below_ = vec3::Constant(none); ///< largest offset of the walls with normal +e_k
+    vec3 above_ = vec3::Constant(none); ///< largest offset of the walls with normal −e_k
+    std::vector<wall> oblique_;         ///< every other wall
+};
 
 /// Lists sphere i in `moved` unless a discrete response moved it before in this step.
 void note_moved(std::span<std::uint8_t> was_moved, std::vector<std::uint32_t>& moved, std::uint32_t i)
@@ -63,12 +95,12 @@ void note_moved(std::span<std::uint8_t> was_moved, std::vector<std::uint32_t>& m
 }
 
 /// Pushes sphere i out of every wall it is inside and removes its velocity into that wall.
-void clamp_body_to_walls(std::span<wall const> walls, collision_bodies const& b, std::size_t i)
+void clamp_body_to_walls(wall_set const& walls, collision_bodies const& b, std::size_t i)
 {
     double const r = b.radius[i];
-    if (r <= 0.0 || b.inverse_mass[i] == 0.0 || clear_of_walls(walls, b.x[i], r))
+    if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))
         return;
-    for (wall const& w : walls) {
+    for (wall const& w : walls.all) {
         vec3 const& n = w.surface.normal;
         double const depth = w.surface.offset + r - n.dot(b.x[i]);
         if (depth <= 0.0)
@@ -84,7 +116,7 @@ void clamp_body_to_walls(std::span<wall const> walls, collision_bodies const& b,
 /// time it crossed, found by the lecture's linear interpolation between tᵢ and tᵢ₊₁, bounces
 /// there, and finishes the step on its new path. Up to four walls per step (a corner).
 /// Bodies [begin, end), each on its own; also notes each one's free acceleration.
-void resolve_walls_discrete(collision_settings const& settings, std::span<wall const> walls,
+void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,
                             std::size_t begin, std::size_t end, std::span<std::uint8_t> was_moved,
                             wall_chunk& out)
@@ -96,7 +128,7 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
         free_a[i] = (b.v[i] - b.v0[i]) / h;
         was_moved[i] = 0;
         double const r = b.radius[i];
-        if (r <= 0.0 || b.inverse_mass[i] == 0.0 || clear_of_walls(walls, b.x[i], r))
+        if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))
             continue;
         body_path path{b.x0[i], b.v0[i], free_a[i], 0.0};
         vec3 end_position = b.x[i];
@@ -104,7 +136,7 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
         for (int bounce = 0; bounce < 4; ++bounce) {
             wall const* hit = nullptr;
             double hit_time = std::numeric_limits<double>::infinity();
-            for (wall const& w : walls) {
+            for (wall const& w : walls.all) {
                 if (w.surface.normal.dot(end_position) >= w.surface.offset + r)
                     continue;
                 double const t = std::clamp(
@@ -133,7 +165,7 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
 
 /// Discrete boxes: a sphere overlapping a box is pushed out along the contact normal and
 /// bounces by the wall rule.
-void resolve_obstacles_discrete(collision_settings const& settings, std::span<wall const> walls,
+void resolve_obstacles_discrete(collision_settings const& settings, wall_set const& walls,
                                 std::span<obstacle const> obstacles, collision_bodies const& b,
                                 double h, std::span<vec3 const> free_a, collision_workspace& ws,
                                 collision_stats& stats)
@@ -161,13 +193,12 @@ void resolve_obstacles_discrete(collision_settings const& settings, std::span<wa
 
 /// A sphere touching a wall (to a relative 1e-9 of its radius) and moving into it stops
 /// moving into it: the wall carries it.
-void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies const& b, std::size_t i)
+void stop_body_at_touched_walls(wall_set const& walls, collision_bodies const& b, std::size_t i)
 {
-    double const r = b.radius[i];
-    double const reach = r * (1.0 + 1e-9);
-    if (beyond_walls(walls, b.x[i], reach))
+    double const reach = b.radius[i] * (1.0 + 1e-9);
+    if (walls.beyond(b.x[i], reach))
         return;
-    for (wall const& w : walls) {
+    for (wall const& w : walls.all) {
         vec3 const& n = w.surface.normal;
         double const vn = b.v[i].dot(n);
         if (vn < 0.0 && n.dot(b.x[i]) <= w.surface.offset + reach)
@@ -175,11 +206,12 @@ void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies co
     }
 }
 
-/// Fills the slabs' near pairs: the pairs whose boxes overlap at the end positions, each in
-/// the slab of its first sphere in the grid's cell order, in that order. The grid finds them
-/// itself when the scene asks for it; another broadphase's pairs are put in the same order,
-/// so that the broadphase changes the cost only. When the grid cannot hold the scene, one
-/// slab holds every pair in slot order. Returns the number of slabs.
+/// Fills the slabs' near pairs, the pairs whose boxes overlap at the end positions, and their
+/// contacts, the near pairs that touch: each pair in the slab of its first sphere in the
+/// grid's cell order, in that order. The grid finds them itself when the scene asks for it;
+/// another broadphase's pairs are put in the same order, so that the broadphase changes the
+/// cost only. When the grid cannot hold the scene, one slab holds every pair in slot order.
+/// Returns the number of slabs.
 std::size_t find_near_pairs(collision_settings const& settings, collision_bodies const& b,
                             collision_workspace& ws, parallel_for* loops)
 {
@@ -187,29 +219,39 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
     std::size_t const slabs = gridded ? ws.grid.slab_count() : 1;
     ws.slabs.resize(slabs);
     if (gridded && settings.broadphase == broadphase_kind::uniform_grid) {
-        run_loop(loops, slabs, [&](std::size_t s) { ws.grid.near_pairs(s, ws.slabs[s].near); });
+        run_loop(loops, slabs, [&](std::size_t s) {
+            ws.grid.near_pairs(s, ws.slabs[s].near, ws.slabs[s].contacts);
+        });
         return slabs;
     }
     sphere_boxes(b.x, b.radius, ws);
     find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
     for (box_pair& p : ws.pairs)
         p = {ws.members[p.a], ws.members[p.b]}; // from box indices to body slots
-    if (!gridded) {
-        ws.slabs[0].near.swap(ws.pairs);
-        return slabs;
-    }
-    auto const rank = ws.grid.rank();
-    auto const in_cell_order = [&](box_pair const& p) {
-        std::uint32_t const a = rank[p.a], c = rank[p.b];
-        return box_pair{std::min(a, c), std::max(a, c)};
-    };
-    std::sort(ws.pairs.begin(), ws.pairs.end(), [&](box_pair const& p, box_pair const& q) {
-        return in_cell_order(p) < in_cell_order(q);
-    });
     for (contact_slab& slab : ws.slabs)
         slab.near.clear();
-    for (box_pair const& p : ws.pairs)
-        ws.slabs[ws.grid.slab_of(in_cell_order(p).a)].near.push_back(p);
+    if (gridded) {
+        auto const rank = ws.grid.rank();
+        auto const in_cell_order = [&](box_pair const& p) {
+            std::uint32_t const i = rank[p.a], j = rank[p.b];
+            return box_pair{std::min(i, j), std::max(i, j)};
+        };
+        std::sort(ws.pairs.begin(), ws.pairs.end(), [&](box_pair const& p, box_pair const& q) {
+            return in_cell_order(p) < in_cell_order(q);
+        });
+        for (box_pair const& p : ws.pairs)
+            ws.slabs[ws.grid.slab_of(in_cell_order(p).a)].near.push_back(p);
+    } else {
+        ws.slabs[0].near.swap(ws.pairs);
+    }
+    for (contact_slab& slab : ws.slabs) {
+        slab.contacts.clear();
+        for (box_pair const& p : slab.near) {
+            double const reach = b.radius[p.a] + b.radius[p.b];
+            if (!((b.x[p.a] - b.x[p.b]).squaredNorm() > reach * reach))
+                slab.contacts.push_back(p);
+        }
+    }
     return slabs;
 }
 
@@ -222,13 +264,13 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
 /// (near, not only the contacts: a push can bring two neighbours into overlap), and walls
 /// push back in every pass, so stacks settle on them. Only the spheres whose velocity or
 /// position a pass changed are checked against the walls (each sphere on its own, so order
-/// does not matter).
+/// does not matter); a pass that moved nothing leaves nothing for the next.
 ///
 /// Pairs are visited slab by slab, the even slabs first and then the odd ones, each in cell
 /// order (sphere_grid.hpp). The slabs of one parity share no sphere, so they run at the same
 /// time and the outcome is that order's, whatever the number of threads. A sphere listed by
 /// one slab in a pass is marked, so that no other slab lists it again.
-void resolve_pairs_discrete(collision_settings const& settings, std::span<wall const> walls,
+void resolve_pairs_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3 const> free_a,
                             collision_workspace& ws, collision_stats& stats, parallel_for* loops)
 {
@@ -247,19 +289,17 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
             slab.touched.push_back(k);
     };
 
+    // The spheres in contacts that touch a wall: the velocity passes stop them at it. Positions
+    // do not change in those passes, so the list holds for all of them.
     by_parity([&](contact_slab& slab) {
-        slab.contacts.clear();
-        slab.touched.clear(); // the spheres whose velocity the passes may change
+        slab.touched.clear();
         slab.moved.clear();
         slab.responses = 0;
-        for (box_pair const& p : slab.near) {
-            double const reach = b.radius[p.a] + b.radius[p.b];
-            if ((b.x[p.a] - b.x[p.b]).squaredNorm() > reach * reach)
-                continue;
-            slab.contacts.push_back(p);
+        for (box_pair const& p : slab.contacts) {
             list_once(slab, p.a);
             list_once(slab, p.b);
         }
+        std::erase_if(slab.touched, [&](std::uint32_t k) { return walls.beyond(b.x[k], b.radius[k] * (1.0 + 1e-9)); });
     });
 
     auto normal_of = [&](std::size_t i, std::size_t j, double& gap) {
@@ -316,6 +356,9 @@ void resolve_pairs_discrete(collision_settings const& settings, std::span<wall c
                 note_moved(ws.was_moved, slab.moved, k);
             }
         });
+        if (std::all_of(ws.slabs.begin(), ws.slabs.end(),
+                        [](contact_slab const& slab) { return slab.touched.empty(); }))
+            break;
     }
     for (contact_slab const& slab : ws.slabs)
         stats.sphere_contacts += slab.responses;
@@ -341,6 +384,7 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     // Each body's acceleration over the step from free motion alone, before any response,
     // is noted by the wall pass, which handles each body on its own: in chunks, any number
     // at a time, gathered in chunk order.
+    wall_set const wall_tests(walls);
     std::size_t const n = bodies.x.size();
     auto& free_a = workspace.free_acceleration;
     free_a.resize(n);
@@ -348,7 +392,7 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     workspace.mark.assign(n, 0);
     workspace.wall_chunks.resize(chunk_count(n));
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        resolve_walls_discrete(settings, walls, bodies, h, free_a, begin, end, workspace.was_moved,
+        resolve_walls_discrete(settings, wall_tests, bodies, h, free_a, begin, end, workspace.was_moved,
                                workspace.wall_chunks[c]);
     });
     workspace.moved.clear();
@@ -356,8 +400,20 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
         workspace.moved.insert(workspace.moved.end(), chunk.moved.begin(), chunk.moved.end());
         stats.wall_contacts += chunk.responses;
     }
-    resolve_obstacles_discrete(settings, walls, obstacles, bodies, h, free_a, workspace, stats);
-    resolve_pairs_discrete(settings, walls, bodies, h, free_a, workspace, stats, loops);
+    resolve_obstacles_discrete(settings, wall_tests, obstacles, bodies, h, free_a, workspace, stats);
+    resolve_pairs_discrete(settings, wall_tests, bodies, h, free_a, workspace, stats, loops);
+
+    // No sphere is left inside a wall: the spheres the response moved are clamped (the position
+    // passes also clamp as they go); every other sphere was clear of every wall when the wall
+    // pass looked at it and has not moved since, so clamping it would change nothing. (Clamping
+    // a bounced sphere before the pair passes instead of after them left stacks settling four
+    // times worse.) Each moved sphere is in one of the lists, once.
+    for (std::uint32_t i : workspace.moved)
+        clamp_body_to_walls(wall_tests, bodies, i);
+    run_loop(loops, workspace.slabs.size(), [&](std::size_t s) {
+        for (std::uint32_t i : workspace.slabs[s].moved)
+            clamp_body_to_walls(wall_tests, bodies, i);
+    });
 }
 
 void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,
@@ -365,20 +421,10 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
                         double h, collision_workspace& workspace, collision_stats& stats,
                         parallel_for* loops)
 {
-    // Neither mode leaves a sphere inside a wall: both clamp at the end. Continuous mode clamps
-    // every sphere. Discrete mode clamps the spheres its response moved (it also clamps inside
-    // its position passes); every other sphere was clear of every wall when the wall pass
-    // looked at it and has not moved since, so clamping it would change nothing. (Clamping a
-    // bounced sphere before the pair passes instead of after them left stacks settling four
-    // times worse.) Each moved sphere is in one of the lists, once.
+    // Neither mode leaves a sphere inside a wall: discrete mode clamps the spheres it moved,
+    // continuous mode every sphere.
     if (settings.mode == collision_mode::discrete) {
         resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats, loops);
-        for (std::uint32_t i : workspace.moved)
-            clamp_body_to_walls(walls, bodies, i);
-        run_loop(loops, workspace.slabs.size(), [&](std::size_t s) {
-            for (std::uint32_t i : workspace.slabs[s].moved)
-                clamp_body_to_walls(walls, bodies, i);
-        });
     } else if (settings.mode == collision_mode::continuous) {
         resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats);
         clamp_to_walls(walls, bodies);
@@ -387,8 +433,9 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
 
 void clamp_to_walls(std::span<wall const> walls, collision_bodies const& b)
 {
+    wall_set const wall_tests(walls);
     for (std::size_t i = 0; i < b.x.size(); ++i)
-        clamp_body_to_walls(walls, b, i);
+        clamp_body_to_walls(wall_tests, b, i);
 }
 
 double max_overlap(std::span<wall const> walls, std::span<obstacle const> obstacles,

@@ -4,6 +4,8 @@
 #include <array>
 #include <cmath>
 #include <limits>
+#include <optional>
+#include <utility>
 
 namespace kugel::physics {
 
@@ -15,13 +17,24 @@ constexpr double unit_roundoff = 0x1p-53;
 constexpr double largest_cell_coordinate = 0x1p47;
 /// Slabs per grid at most: enough for two threads to share them evenly, few enough that a
 /// slab is much larger than its boundary with the next.
-constexpr std::size_t most_slabs = 16;
+constexpr std::uint32_t most_slabs = 16;
+/// Up to this many cells per sphere the grid keeps a table of every cell's start (a gas at
+/// 10% fill has about 5); beyond it, a sparse scene, it searches the sorted keys instead.
+constexpr std::uint64_t dense_cells_per_sphere = 16;
 
 /// floor(q) for |q| < 2^53, without a library call.
 std::int64_t floor_to_integer(double q)
 {
     auto const truncated = static_cast<std::int64_t>(q);
     return q < static_cast<double>(truncated) ? truncated - 1 : truncated;
+}
+
+/// a · b, or nullopt when it does not fit in 64 bits.
+std::optional<std::uint64_t> checked_product(std::uint64_t a, std::uint64_t b)
+{
+    if (a != 0 && b > std::numeric_limits<std::uint64_t>::max() / a)
+        return std::nullopt;
+    return a * b;
 }
 
 /// What one chunk of bodies holds: its spheres' count, largest radius and extreme centres.
@@ -44,40 +57,41 @@ struct chunk_extremes
 bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius, parallel_for* loops)
 {
     slab_begin_.assign(1, 0);
-    slab_column_.assign(1, 0);
+    slab_cell_.assign(1, 0);
     std::size_t const n = x.size();
-    if (n >= (std::size_t{1} << 30))
+    if (n >= (std::size_t{1} << 28))
         return false; // the tables below count in 32 bits
 
     // 1. Spheres, largest radius and extreme centres, per chunk of bodies (min and max are
     //    exact, so any split gives the same result).
-    std::vector<chunk_extremes> chunks(chunk_count(n));
+    std::size_t const chunks = chunk_count(n);
+    std::vector<chunk_extremes> found(chunks);
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        chunk_extremes found;
+        chunk_extremes e;
         for (std::size_t i = begin; i < end; ++i) {
             if (!(radius[i] > 0.0))
                 continue;
-            ++found.spheres;
-            found.largest_radius = std::max(found.largest_radius, radius[i]);
-            found.lowest = found.lowest.cwiseMin(x[i]);
-            found.highest = found.highest.cwiseMax(x[i]);
+            ++e.spheres;
+            e.largest_radius = std::max(e.largest_radius, radius[i]);
+            e.lowest = e.lowest.cwiseMin(x[i]);
+            e.highest = e.highest.cwiseMax(x[i]);
         }
-        chunks[c] = found;
+        found[c] = e;
     });
     chunk_extremes all;
-    std::vector<std::uint32_t> first_entry(chunks.size()); // of each chunk's spheres
-    for (std::size_t c = 0; c < chunks.size(); ++c) {
+    std::vector<std::uint32_t> first_entry(chunks); // of each chunk's spheres, in slot order
+    for (std::size_t c = 0; c < chunks; ++c) {
         first_entry[c] = all.spheres;
-        all.spheres += chunks[c].spheres;
-        all.largest_radius = std::max(all.largest_radius, chunks[c].largest_radius);
-        all.lowest = all.lowest.cwiseMin(chunks[c].lowest);
-        all.highest = all.highest.cwiseMax(chunks[c].highest);
+        all.spheres += found[c].spheres;
+        all.largest_radius = std::max(all.largest_radius, found[c].largest_radius);
+        all.lowest = all.lowest.cwiseMin(found[c].lowest);
+        all.highest = all.highest.cwiseMax(found[c].highest);
     }
     if (all.spheres == 0)
         return false;
 
     // 2. Cell size and the grid's extent, padded by one cell on every side so that every
-    //    neighbour of an occupied cell has a column and a z-cell.
+    //    neighbour of an occupied cell has a key and no neighbour's key wraps into another row.
     double const diameter = 2.0 * all.largest_radius;
     double const reach =
         std::max(all.lowest.cwiseAbs().maxCoeff(), all.highest.cwiseAbs().maxCoeff()) / diameter;
@@ -85,82 +99,102 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         return false;
     double const cell_size = diameter + diameter * (8.0 * unit_roundoff * (2.0 + reach)); // m
     std::array<std::int64_t, 3> lowest_cell, size;
-    for (int k = 0; k < 3; ++k) {
-        lowest_cell[static_cast<std::size_t>(k)] = floor_to_integer(all.lowest[k] / cell_size);
-        size[static_cast<std::size_t>(k)] =
-            floor_to_integer(all.highest[k] / cell_size) - lowest_cell[static_cast<std::size_t>(k)] + 3;
+    for (std::size_t k = 0; k < 3; ++k) {
+        auto const axis = static_cast<Eigen::Index>(k);
+        lowest_cell[k] = floor_to_integer(all.lowest[axis] / cell_size);
+        size[k] = floor_to_integer(all.highest[axis] / cell_size) - lowest_cell[k] + 3;
     }
-    // Tables of columns and z-cells no larger than a few entries per sphere.
-    auto const limit = static_cast<std::int64_t>(4 * std::size_t{all.spheres} + 1024);
-    if (size[0] > limit || size[1] > limit || size[2] > limit || size[0] * size[1] > limit)
+    // Keys number every cell of the padded grid; a table of them all is kept when it has no
+    // more than a few entries per sphere.
+    auto const plane_cells = checked_product(static_cast<std::uint64_t>(size[1]), static_cast<std::uint64_t>(size[2]));
+    auto const cells = plane_cells ? checked_product(static_cast<std::uint64_t>(size[0]), *plane_cells) : std::nullopt;
+    if (!cells || *cells >= std::numeric_limits<std::uint64_t>::max() / 2)
         return false;
-    cells_y_ = static_cast<std::size_t>(size[1]);
-    auto const columns = static_cast<std::size_t>(size[0] * size[1]);
-    auto const cells_z = static_cast<std::size_t>(size[2]);
+    stride_y_ = static_cast<std::uint64_t>(size[2]);
+    stride_x_ = *plane_cells;
+    dense_ = *cells <= dense_cells_per_sphere * std::uint64_t{all.spheres} + 1024;
 
-    // 3. Each sphere's column and z-cell, in slot order.
+    // 3. Slabs of equal numbers of x-cells; the first and last also hold the padding cells,
+    //    and the last the end of the table.
+    auto const cells_x = static_cast<std::uint64_t>(size[0]) - 2;
+    std::uint64_t const width = (cells_x + most_slabs - 1) / most_slabs;
+    auto const slabs = static_cast<std::uint32_t>((cells_x + width - 1) / width);
+    slab_cell_.resize(slabs + 1);
+    for (std::uint32_t s = 1; s < slabs; ++s)
+        slab_cell_[s] = (1 + s * width) * stride_x_;
+    slab_cell_[slabs] = *cells + 1;
+
+    // 4. Each sphere's cell key and slab, in slot order, counted per chunk and slab.
     entries_.resize(all.spheres);
+    slab_of_entry_.resize(all.spheres);
+    chunk_slab_start_.assign(chunks * slabs, 0);
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
         std::uint32_t k = first_entry[c];
+        std::uint32_t* const count = chunk_slab_start_.data() + c * slabs;
         for (std::size_t i = begin; i < end; ++i) {
             if (!(radius[i] > 0.0))
                 continue;
-            auto const cell = [&](int axis) {
-                return static_cast<std::uint32_t>(floor_to_integer(x[i][axis] / cell_size) -
-                                                  lowest_cell[static_cast<std::size_t>(axis)] + 1);
+            auto const cell = [&](std::size_t axis) {
+                return static_cast<std::uint64_t>(
+                    floor_to_integer(x[i][static_cast<Eigen::Index>(axis)] / cell_size) - lowest_cell[axis] + 1);
             };
-            entries_[k++] = {static_cast<std::uint32_t>(cell(0) * cells_y_ + cell(1)), cell(2),
-                             static_cast<std::uint32_t>(i)};
+            std::uint64_t const cx = cell(0);
+            entries_[k] = {cx * stride_x_ + cell(1) * stride_y_ + cell(2), static_cast<std::uint32_t>(i)};
+            slab_of_entry_[k] = static_cast<std::uint32_t>((cx - 1) / width);
+            ++count[slab_of_entry_[k]];
+            ++k;
         }
     });
 
-    // 4. Sort by (column, z-cell, slot): two stable counting sorts, on the z-cell and then on
-    //    the column, of entries that start in slot order.
-    scratch_.resize(all.spheres);
-    auto const counting_sort = [&](std::vector<cell_entry> const& from, std::vector<cell_entry>& to,
-                                   std::size_t buckets, auto key) {
-        counts_.assign(buckets + 1, 0);
-        for (cell_entry const& e : from)
-            ++counts_[key(e) + 1];
-        for (std::size_t b = 1; b <= buckets; ++b)
-            counts_[b] += counts_[b - 1];
-        for (cell_entry const& e : from)
-            to[counts_[key(e)]++] = e;
-    };
-    counting_sort(entries_, scratch_, cells_z, [](cell_entry const& e) { return e.z; });
-    counting_sort(scratch_, entries_, columns, [](cell_entry const& e) { return e.column; });
-    // After the scatter counts_[b] is the end of column b's run: shift it into the starts.
-    column_begin_.resize(columns + 1);
-    column_begin_[0] = 0;
-    std::copy(counts_.begin(), counts_.begin() + static_cast<std::ptrdiff_t>(columns),
-              column_begin_.begin() + 1);
+    // 5. Entries by slab, in slot order within each: every chunk's share of a slab goes after
+    //    the earlier chunks' shares.
+    slab_begin_.resize(slabs + 1);
+    std::uint32_t next = 0;
+    for (std::uint32_t s = 0; s < slabs; ++s) {
+        slab_begin_[s] = next;
+        for (std::size_t c = 0; c < chunks; ++c)
+            next += std::exchange(chunk_slab_start_[c * slabs + s], next);
+    }
+    slab_begin_[slabs] = next;
+    by_slab_.resize(all.spheres);
+    run_loop(loops, chunks, [&](std::size_t c) {
+        std::uint32_t* const start = chunk_slab_start_.data() + c * slabs;
+        std::uint32_t const end = c + 1 < chunks ? first_entry[c + 1] : all.spheres;
+        for (std::uint32_t k = first_entry[c]; k < end; ++k)
+            by_slab_[start[slab_of_entry_[k]]++] = entries_[k];
+    });
 
-    // 5. The spheres in cell order, and each slot's position in it.
+    // 6. Within each slab, the spheres sorted by cell, then slot: a counting sort over the
+    //    slab's cells, stable, which leaves the table of where each cell starts (dense), or a
+    //    comparison sort (sparse). Then the spheres in that order. The slabs' cells and
+    //    entries are disjoint, so slabs sort at the same time.
+    if (dense_)
+        cell_begin_.resize(*cells + 1);
     spheres_.resize(all.spheres);
-    cell_z_.resize(all.spheres);
-    slot_.resize(all.spheres);
     rank_.resize(n);
-    run_chunks(loops, all.spheres, [&](std::size_t, std::size_t begin, std::size_t end) {
-        for (std::size_t k = begin; k < end; ++k) {
+    run_loop(loops, slabs, [&](std::size_t s) {
+        std::uint32_t const begin = slab_begin_[s], end = slab_begin_[s + 1];
+        if (dense_) {
+            auto const first_cell = cell_begin_.begin() + static_cast<std::ptrdiff_t>(slab_cell_[s]);
+            auto const last_cell = cell_begin_.begin() + static_cast<std::ptrdiff_t>(slab_cell_[s + 1]);
+            std::fill(first_cell, last_cell, 0U);
+            for (std::uint32_t k = begin; k < end; ++k)
+                ++cell_begin_[by_slab_[k].cell];
+            std::uint32_t sum = begin;
+            for (auto cell = first_cell; cell != last_cell; ++cell)
+                *cell = sum += *cell; // each cell's end, for now
+            for (std::uint32_t k = end; k-- > begin;)
+                entries_[--cell_begin_[by_slab_[k].cell]] = by_slab_[k]; // now each cell's start
+        } else {
+            std::copy(by_slab_.begin() + begin, by_slab_.begin() + end, entries_.begin() + begin);
+            std::sort(entries_.begin() + begin, entries_.begin() + end);
+        }
+        for (std::uint32_t k = begin; k < end; ++k) {
             std::uint32_t const i = entries_[k].slot;
             spheres_[k] = {x[i].x(), x[i].y(), x[i].z(), radius[i]};
-            cell_z_[k] = entries_[k].z;
-            slot_[k] = i;
-            rank_[i] = static_cast<std::uint32_t>(k);
+            rank_[i] = k;
         }
     });
-
-    // 6. Slabs of equal numbers of x-cells (the padding cells hold no sphere).
-    auto const cells_x = static_cast<std::size_t>(size[0]) - 2;
-    std::size_t const width = (cells_x + most_slabs - 1) / most_slabs;
-    std::size_t const slabs = (cells_x + width - 1) / width;
-    slab_column_.resize(slabs + 1);
-    slab_begin_.resize(slabs + 1);
-    for (std::size_t s = 0; s <= slabs; ++s) {
-        std::size_t const first_x = s == 0 ? 0 : std::min(1 + s * width, cells_x + 1);
-        slab_column_[s] = static_cast<std::uint32_t>(s == slabs ? columns : first_x * cells_y_);
-        slab_begin_[s] = column_begin_[slab_column_[s]];
-    }
     return true;
 }
 
@@ -170,45 +204,60 @@ std::size_t sphere_grid::slab_of(std::uint32_t rank) const
     return static_cast<std::size_t>(after - slab_begin_.begin()) - 1;
 }
 
-// Each sphere against the rest of its own cell, the cell above it, and the cells of four
-// neighbouring columns from one z-cell below to one above: the 13 neighbours that come
-// after a cell in cell order, so each pair of cells is visited once. Within a column the
-// spheres are sorted by z-cell, so each neighbour column's window only moves forward.
-// The candidates come in cell order, which makes the output sorted without a sort.
-void sphere_grid::near_pairs(std::size_t s, std::vector<box_pair>& out) const
+// Each sphere against the rest of its own cell and the 13 neighbouring cells that come after
+// its cell in cell order, so that each pair of cells is visited once: the cell above it
+// (z + 1, which follows its own in the table, so the two are one run) and four rows of three
+// cells (z − 1 to z + 1, one run each) at (y + 1), (x + 1, y − 1), (x + 1, y), (x + 1, y + 1).
+// The runs come in cell order, so the output is sorted without a sort.
+void sphere_grid::near_pairs(std::size_t s, std::vector<box_pair>& near,
+                             std::vector<box_pair>& touching) const
 {
-    out.clear();
-    auto const meet = [](filed_sphere const& a, filed_sphere const& b) {
-        bool const x = std::max(a.x - a.r, b.x - b.r) <= std::min(a.x + a.r, b.x + b.r);
-        bool const y = std::max(a.y - a.r, b.y - b.r) <= std::min(a.y + a.r, b.y + b.r);
-        bool const z = std::max(a.z - a.r, b.z - b.r) <= std::min(a.z + a.r, b.z + b.r);
-        return x & y & z;
-    };
-    for (std::size_t column = slab_column_[s]; column < slab_column_[s + 1]; ++column) {
-        std::uint32_t const begin = column_begin_[column], end = column_begin_[column + 1];
-        if (begin == end)
-            continue;
-        std::array<std::size_t, 4> const neighbours = {column + 1, column + cells_y_ - 1,
-                                                       column + cells_y_, column + cells_y_ + 1};
-        std::array<std::uint32_t, 4> window, window_end;
-        for (std::size_t k = 0; k < 4; ++k) {
-            window[k] = column_begin_[neighbours[k]];
-            window_end[k] = column_begin_[neighbours[k] + 1];
-        }
-        for (std::uint32_t p = begin; p < end; ++p) {
-            std::uint32_t const z = cell_z_[p];
-            filed_sphere const& a = spheres_[p];
-            auto const test = [&](std::uint32_t q) {
-                if (meet(a, spheres_[q]))
-                    out.push_back({std::min(slot_[p], slot_[q]), std::max(slot_[p], slot_[q])});
-            };
-            for (std::uint32_t q = p + 1; q < end && cell_z_[q] <= z + 1; ++q)
-                test(q);
-            for (std::size_t k = 0; k < 4; ++k) {
-                while (window[k] < window_end[k] && cell_z_[window[k]] + 1 < z)
-                    ++window[k];
-                for (std::uint32_t q = window[k]; q < window_end[k] && cell_z_[q] <= z + 1; ++q)
-                    test(q);
+    if (dense_) {
+        near_pairs(s, near, touching, [&](std::uint64_t key) { return cell_begin_[key]; });
+    } else {
+        near_pairs(s, near, touching, [&](std::uint64_t key) {
+            auto const found = std::partition_point(entries_.begin(), entries_.end(),
+                                                    [&](cell_entry const& e) { return e.cell < key; });
+            return static_cast<std::uint32_t>(found - entries_.begin());
+        });
+    }
+}
+
+template <class First>
+void sphere_grid::near_pairs(std::size_t s, std::vector<box_pair>& near, std::vector<box_pair>& touching,
+                             First const& first_at_or_after) const
+{
+    near.clear();
+    touching.clear();
+    std::array<std::uint64_t, 4> const row_offsets = {stride_y_, stride_x_ - stride_y_, stride_x_,
+                                                      stride_x_ + stride_y_};
+    for (std::uint32_t p = slab_begin_[s]; p < slab_begin_[s + 1]; ++p) {
+        std::uint64_t const key = entries_[p].cell;
+        std::array<std::array<std::uint32_t, 2>, 5> runs;
+        runs[0] = {p + 1, first_at_or_after(key + 2)};
+        for (std::size_t k = 0; k < 4; ++k)
+            runs[k + 1] = {first_at_or_after(key + row_offsets[k] - 1),
+                           first_at_or_after(key + row_offsets[k] + 2)};
+        filed_sphere const a = spheres_[p];
+        double const a_lo_x = a.x - a.r, a_lo_y = a.y - a.r, a_lo_z = a.z - a.r;
+        double const a_hi_x = a.x + a.r, a_hi_y = a.y + a.r, a_hi_z = a.z + a.r;
+        for (auto const& [begin, end] : runs) {
+            for (std::uint32_t q = begin; q < end; ++q) {
+                filed_sphere const& b = spheres_[q];
+                // overlaps() from aabb.hpp on [x − r, x + r]: max(lo) <= min(hi) is lo_a <= hi_b
+                // and lo_b <= hi_a (as lo <= hi), tested without a branch per axis
+                bool const meet = (a_lo_x <= b.x + b.r) & (b.x - b.r <= a_hi_x) &
+                                  (a_lo_y <= b.y + b.r) & (b.y - b.r <= a_hi_y) &
+                                  (a_lo_z <= b.z + b.r) & (b.z - b.r <= a_hi_z);
+                if (!meet)
+                    continue;
+                std::uint32_t const i = entries_[p].slot, j = entries_[q].slot;
+                box_pair const pair{std::min(i, j), std::max(i, j)};
+                near.push_back(pair);
+                // the discrete step's contact test: |x_i − x_j|² against (r_i + r_j)²
+                double const reach = a.r + b.r;
+                if (!((vec3(a.x, a.y, a.z) - vec3(b.x, b.y, b.z)).squaredNorm() > reach * reach))
+                    touching.push_back(pair);
             }
         }
     }

@@ -7,6 +7,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <iterator>
 #include <new>
 #include <random>
 #include <stdexcept>
@@ -348,17 +349,24 @@ namespace kugel::physics {
 namespace {
 
 /// The sphere grid's near pairs of every slab, checking on the way what the discrete step's
-/// threads rely on: each slab's pairs come in cell order, start in that slab and end in it or
-/// the next. Returned sorted by body slot, to compare with the broadphases.
+/// threads rely on (each slab's pairs come in cell order, start in that slab and end in it or
+/// the next) and that the touching ones are exactly the near pairs within r_a + r_b.
+/// Returned sorted by body slot, to compare with the broadphases.
 std::vector<box_pair> sphere_grid_pairs(std::vector<vec3> const& x, std::vector<double> const& r,
                                         parallel_for* loops = nullptr)
 {
     sphere_grid grid;
     EXPECT_TRUE(grid.build(x, r, loops));
-    std::vector<box_pair> all, slab;
+    std::vector<box_pair> all, slab, touching, expected_touching;
     auto const rank = grid.rank();
     for (std::size_t s = 0; s < grid.slab_count(); ++s) {
-        grid.near_pairs(s, slab);
+        grid.near_pairs(s, slab, touching);
+        expected_touching.clear();
+        std::copy_if(slab.begin(), slab.end(), std::back_inserter(expected_touching), [&](box_pair const& p) {
+            double const reach = r[p.a] + r[p.b];
+            return !((x[p.a] - x[p.b]).squaredNorm() > reach * reach);
+        });
+        EXPECT_EQ(touching, expected_touching);
         box_pair previous{0, 0};
         for (box_pair const& p : slab) {
             EXPECT_LT(p.a, p.b);
@@ -440,7 +448,7 @@ TEST(SphereGrid, SameOrderWithAPoolOfThreads)
     std::vector<vec3> x;
     std::vector<double> r;
     for (int i = 0; i < 20000; ++i) {
-        x.push_back(12.0 * vec3(unit(rng), unit(rng), unit(rng)));
+        x.push_back(7.0 * vec3(unit(rng), unit(rng), unit(rng)));
         r.push_back(0.05 + 0.05 * unit(rng));
     }
     thread_pool pool(2);
@@ -449,29 +457,49 @@ TEST(SphereGrid, SameOrderWithAPoolOfThreads)
     ASSERT_TRUE(shared.build(x, r, &pool));
     ASSERT_GT(alone.slab_count(), 2U);
     EXPECT_TRUE(std::ranges::equal(alone.rank(), shared.rank()));
-    std::vector<box_pair> a, b;
+    std::vector<box_pair> a, b, a_touching, b_touching;
     for (std::size_t s = 0; s < alone.slab_count(); ++s) {
-        alone.near_pairs(s, a);
-        shared.near_pairs(s, b);
+        alone.near_pairs(s, a, a_touching);
+        shared.near_pairs(s, b, b_touching);
         EXPECT_EQ(a, b);
+        EXPECT_EQ(a_touching, b_touching);
     }
 }
 
 // The grid declines what it cannot hold, and the discrete step then falls back to the
-// broadphases in slot order: no sphere, or one sphere flung so far that the table of
-// columns would be far larger than the spheres.
-TEST(SphereGrid, DeclinesScenesItCannotHold)
+// broadphases in slot order: no sphere, or coordinates so far out that cells finer than the
+// coordinates resolve would be needed. A sparse scene (one sphere flung far off) it holds,
+// searching its sorted keys instead of keeping a table of every cell.
+TEST(SphereGrid, DeclinesOnlyScenesItCannotHold)
 {
     sphere_grid grid;
-    std::vector<vec3> x = {vec3::Zero(), vec3(1, 0, 0)};
-    std::vector<double> r = {0.0, 0.0};
+    std::vector<vec3> x = {vec3::Zero(), vec3(0.1, 0, 0), vec3(1, 0, 0)};
+    std::vector<double> r = {0.0, 0.0, 0.0};
     EXPECT_FALSE(grid.build(x, r, nullptr));
-    r = {0.1, 0.1};
+    r = {0.1, 0.1, 0.1};
     EXPECT_TRUE(grid.build(x, r, nullptr));
-    x[1] = vec3(1e5, 1e5, 0);
+    x[2] = vec3(1e5, -1e5, 3e4);
+    EXPECT_EQ(sphere_grid_pairs(x, r), broadphase_pairs(x, r));
+    x[2] = vec3(1e300, 0, 0);
     EXPECT_FALSE(grid.build(x, r, nullptr));
-    x[1] = vec3(1e300, 0, 0);
-    EXPECT_FALSE(grid.build(x, r, nullptr));
+}
+
+TEST(SphereGrid, SparseScenesFindTheBroadphasesPairs)
+{
+    std::mt19937_64 rng(23);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<vec3> x;
+    std::vector<double> r;
+    for (int cluster = 0; cluster < 6; ++cluster) {
+        vec3 const centre = 1000.0 * vec3(unit(rng), unit(rng), unit(rng));
+        for (int i = 0; i < 300; ++i) {
+            x.push_back(centre + vec3(unit(rng), unit(rng), unit(rng)));
+            r.push_back(0.02 + 0.08 * unit(rng));
+        }
+    }
+    auto const pairs = sphere_grid_pairs(x, r);
+    EXPECT_EQ(pairs, broadphase_pairs(x, r));
+    EXPECT_GT(pairs.size(), 300U);
 }
 
 TEST(ThreadPool, RunsEachIterationOnceAndRethrows)
