@@ -94,22 +94,27 @@ void note_moved(std::span<std::uint8_t> was_moved, std::vector<std::uint32_t>& m
         moved.push_back(i);
 }
 
-/// Pushes sphere i out of every wall it is inside and removes its velocity into that wall.
-void clamp_body_to_walls(wall_set const& walls, collision_bodies const& b, std::size_t i)
+/// Pushes a sphere (radius r, inverse mass 1/m) at x out of every wall it is inside and
+/// removes its velocity v into that wall.
+void clamp_to_walls(wall_set const& walls, vec3& x, vec3& v, double r, double inverse_mass)
 {
-    double const r = b.radius[i];
-    if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))
+    if (r <= 0.0 || inverse_mass == 0.0 || walls.clear(x, r))
         return;
     for (wall const& w : walls.all) {
         vec3 const& n = w.surface.normal;
-        double const depth = w.surface.offset + r - n.dot(b.x[i]);
+        double const depth = w.surface.offset + r - n.dot(x);
         if (depth <= 0.0)
             continue;
-        b.x[i] += depth * n;
-        double const vn = b.v[i].dot(n);
+        x += depth * n;
+        double const vn = v.dot(n);
         if (vn < 0.0)
-            b.v[i] -= vn * n;
+            v -= vn * n;
     }
+}
+
+void clamp_body_to_walls(wall_set const& walls, collision_bodies const& b, std::size_t i)
+{
+    clamp_to_walls(walls, b.x[i], b.v[i], b.radius[i], b.inverse_mass[i]);
 }
 
 /// Discrete walls: a sphere found inside a wall at the end of the step is taken back to the
@@ -125,7 +130,10 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
     out.responses = 0;
     for (std::size_t k = begin; k < end; ++k) {
         auto const i = static_cast<std::uint32_t>(k);
-        free_a[i] = (b.v[i] - b.v0[i]) / h;
+        // Without forces the change is zero, and then so is the quotient (0/h keeps the sign
+        // of zero): the division, slow beside everything else here, is skipped.
+        vec3 const change = b.v[i] - b.v0[i];
+        free_a[i] = (change.array() == 0.0).all() ? change : vec3(change / h);
         was_moved[i] = 0;
         double const r = b.radius[i];
         if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))
@@ -206,51 +214,49 @@ void stop_body_at_touched_walls(wall_set const& walls, collision_bodies const& b
     }
 }
 
-/// Fills the slabs' near pairs, the pairs whose boxes overlap at the end positions, and their
-/// contacts, the near pairs that touch: each pair in the slab of its first sphere in the
-/// grid's cell order, in that order. The grid finds them itself when the scene asks for it;
-/// another broadphase's pairs are put in the same order, so that the broadphase changes the
-/// cost only. When the grid cannot hold the scene, one slab holds every pair in slot order.
-/// Returns the number of slabs.
+/// Files the spheres in the grid and fills the slabs' near pairs, the pairs whose boxes
+/// overlap at the end positions, and their contacts, the near pairs that touch: each pair in
+/// the slab of its first sphere in the grid's cell order, in that order. The grid finds the
+/// pairs itself when the scene asks for it; another broadphase's pairs are put in the same
+/// order, so that the broadphase changes the cost only. When the grid cannot hold the scene,
+/// one slab holds every pair, in slot order. Returns the number of slabs.
 std::size_t find_near_pairs(collision_settings const& settings, collision_bodies const& b,
                             collision_workspace& ws, parallel_for* loops)
 {
-    bool const gridded = ws.grid.build(b.x, b.radius, loops);
-    std::size_t const slabs = gridded ? ws.grid.slab_count() : 1;
+    sphere_grid& grid = ws.grid;
+    bool const gridded = grid.build(b.x, b.radius, b.inverse_mass, loops);
+    if (!gridded)
+        grid.file_in_slot_order(b.x, b.radius, b.inverse_mass);
+    std::size_t const slabs = grid.slab_count();
     ws.slabs.resize(slabs);
     if (gridded && settings.broadphase == broadphase_kind::uniform_grid) {
-        run_loop(loops, slabs, [&](std::size_t s) {
-            ws.grid.near_pairs(s, ws.slabs[s].near, ws.slabs[s].contacts);
-        });
+        run_loop(loops, slabs, [&](std::size_t s) { grid.near_pairs(s, ws.slabs[s].near, ws.slabs[s].contacts); });
         return slabs;
     }
     sphere_boxes(b.x, b.radius, ws);
     find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
-    for (box_pair& p : ws.pairs)
-        p = {ws.members[p.a], ws.members[p.b]}; // from box indices to body slots
-    for (contact_slab& slab : ws.slabs)
-        slab.near.clear();
-    if (gridded) {
-        auto const rank = ws.grid.rank();
-        auto const in_cell_order = [&](box_pair const& p) {
-            std::uint32_t const i = rank[p.a], j = rank[p.b];
-            return box_pair{std::min(i, j), std::max(i, j)};
-        };
-        std::sort(ws.pairs.begin(), ws.pairs.end(), [&](box_pair const& p, box_pair const& q) {
-            return in_cell_order(p) < in_cell_order(q);
-        });
-        for (box_pair const& p : ws.pairs)
-            ws.slabs[ws.grid.slab_of(in_cell_order(p).a)].near.push_back(p);
-    } else {
-        ws.slabs[0].near.swap(ws.pairs);
-    }
+    grid.ranks(b.x.size(), ws.ranks);
+    auto const in_cell_order = [&](box_pair const& p) {
+        std::uint32_t const i = ws.ranks[ws.members[p.a]], j = ws.ranks[ws.members[p.b]];
+        return box_pair{std::min(i, j), std::max(i, j)};
+    };
+    std::sort(ws.pairs.begin(), ws.pairs.end(), [&](box_pair const& p, box_pair const& q) {
+        return in_cell_order(p) < in_cell_order(q);
+    });
     for (contact_slab& slab : ws.slabs) {
+        slab.near.clear();
         slab.contacts.clear();
-        for (box_pair const& p : slab.near) {
-            double const reach = b.radius[p.a] + b.radius[p.b];
-            if (!((b.x[p.a] - b.x[p.b]).squaredNorm() > reach * reach))
-                slab.contacts.push_back(p);
-        }
+    }
+    for (box_pair const& p : ws.pairs) {
+        // members grow with the box index, so a is the sphere in the lower slot
+        sphere_pair const pair{ws.ranks[ws.members[p.a]], ws.ranks[ws.members[p.b]]};
+        contact_slab& slab = ws.slabs[grid.slab_of(std::min(pair.a, pair.b))];
+        slab.near.push_back(pair);
+        packed_sphere const& s = grid.sphere(pair.a);
+        packed_sphere const& t = grid.sphere(pair.b);
+        double const reach = s.radius + t.radius;
+        if (!((s.x - t.x).squaredNorm() > reach * reach))
+            slab.contacts.push_back(pair);
     }
     return slabs;
 }
@@ -269,12 +275,17 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
 /// Pairs are visited slab by slab, the even slabs first and then the odd ones, each in cell
 /// order (sphere_grid.hpp). The slabs of one parity share no sphere, so they run at the same
 /// time and the outcome is that order's, whatever the number of threads. A sphere listed by
-/// one slab in a pass is marked, so that no other slab lists it again.
+/// one slab in a pass is marked, so that no other slab lists it again. The position passes
+/// move the packed copies, which go back to the bodies at the end.
 void resolve_pairs_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3 const> free_a,
                             collision_workspace& ws, collision_stats& stats, parallel_for* loops)
 {
     std::size_t const slabs = find_near_pairs(settings, b, ws, loops);
+    sphere_grid& grid = ws.grid;
+    auto const packed = [&](std::uint32_t k) -> packed_sphere& { return grid.sphere(k); };
+    auto const slot_of = [&](std::uint32_t k) { return grid.slot(k); };
+    std::uint32_t const spheres = grid.slab_begin(slabs);
     auto const by_parity = [&](auto const& work) {
         for (std::size_t parity = 0; parity < 2; ++parity)
             run_loop(loops, (slabs + 1 - parity) / 2,
@@ -283,43 +294,49 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
     auto const each_slab = [&](auto const& work) {
         run_loop(loops, slabs, [&](std::size_t s) { work(ws.slabs[s]); });
     };
+    ws.mark.assign(spheres, 0);
+    ws.pushed.resize(spheres); // all 0: each use clears what it set
     std::uint32_t stamp = 1;
-    auto const list_once = [&](contact_slab& slab, std::uint32_t k) {
+    auto const list_once = [&](std::vector<std::uint32_t>& list, std::uint32_t k) {
         if (std::exchange(ws.mark[k], stamp) != stamp)
-            slab.touched.push_back(k);
+            list.push_back(k);
     };
 
     // The spheres in contacts that touch a wall: the velocity passes stop them at it. Positions
     // do not change in those passes, so the list holds for all of them.
     by_parity([&](contact_slab& slab) {
         slab.touched.clear();
+        slab.pushed.clear();
         slab.moved.clear();
         slab.responses = 0;
-        for (box_pair const& p : slab.contacts) {
-            list_once(slab, p.a);
-            list_once(slab, p.b);
+        for (sphere_pair const& p : slab.contacts) {
+            list_once(slab.touched, p.a);
+            list_once(slab.touched, p.b);
         }
-        std::erase_if(slab.touched, [&](std::uint32_t k) { return walls.beyond(b.x[k], b.radius[k] * (1.0 + 1e-9)); });
+        std::erase_if(slab.touched, [&](std::uint32_t k) {
+            return walls.beyond(packed(k).x, packed(k).radius * (1.0 + 1e-9));
+        });
     });
 
-    auto normal_of = [&](std::size_t i, std::size_t j, double& gap) {
-        vec3 const d = b.x[i] - b.x[j];
+    auto normal_of = [&](std::uint32_t p, std::uint32_t q, double& gap) {
+        vec3 const d = packed(p).x - packed(q).x;
         double const distance = d.norm();
-        gap = distance - (b.radius[i] + b.radius[j]);
+        gap = distance - (packed(p).radius + packed(q).radius);
         return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
     };
     for (int pass = 0; pass < std::max(settings.velocity_iterations, 1); ++pass) {
         by_parity([&](contact_slab& slab) {
-            for (box_pair const& c : slab.contacts) {
-                std::size_t const i = c.a, j = c.b;
+            for (sphere_pair const& c : slab.contacts) {
+                std::uint32_t const i = slot_of(c.a), j = slot_of(c.b);
                 double gap = 0.0;
-                vec3 const n = normal_of(i, j, gap);
+                vec3 const n = normal_of(c.a, c.b, gap);
                 double const closing = (b.v[i] - b.v[j]).dot(n);
                 if (closing >= 0.0)
                     continue;
                 double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
                 double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
-                auto const w = collide_spheres(b.v[i], b.inverse_mass[i], b.v[j], b.inverse_mass[j], n, e);
+                auto const w = collide_spheres(b.v[i], packed(c.a).inverse_mass, b.v[j],
+                                               packed(c.b).inverse_mass, n, e);
                 b.v[i] = w.first;
                 b.v[j] = w.second;
                 slab.responses += pass == 0 ? 1U : 0U;
@@ -327,39 +344,49 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
         });
         each_slab([&](contact_slab& slab) {
             for (std::uint32_t k : slab.touched)
-                stop_body_at_touched_walls(walls, b, k);
+                stop_body_at_touched_walls(walls, b, slot_of(k));
         });
     }
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
         ++stamp;
         by_parity([&](contact_slab& slab) {
             slab.touched.clear(); // now: the spheres this pass moved
-            for (box_pair const& c : slab.near) {
-                std::size_t const i = c.a, j = c.b;
-                double const reach = b.radius[i] + b.radius[j];
-                if ((b.x[i] - b.x[j]).squaredNorm() >= reach * reach)
+            for (sphere_pair const& c : slab.near) {
+                packed_sphere& s = packed(c.a);
+                packed_sphere& t = packed(c.b);
+                double const reach = s.radius + t.radius;
+                if ((s.x - t.x).squaredNorm() >= reach * reach)
                     continue; // most near pairs are apart: no square root for them
-                double const total = b.inverse_mass[i] + b.inverse_mass[j];
+                double const total = s.inverse_mass + t.inverse_mass;
                 double gap = 0.0;
-                vec3 const n = normal_of(i, j, gap);
+                vec3 const n = normal_of(c.a, c.b, gap);
                 if (gap >= 0.0 || total == 0.0)
                     continue;
-                b.x[i] -= (gap * b.inverse_mass[i] / total) * n;
-                b.x[j] += (gap * b.inverse_mass[j] / total) * n;
-                list_once(slab, c.a);
-                list_once(slab, c.b);
+                s.x -= (gap * s.inverse_mass / total) * n;
+                t.x += (gap * t.inverse_mass / total) * n;
+                list_once(slab.touched, c.a);
+                list_once(slab.touched, c.b);
             }
         });
         each_slab([&](contact_slab& slab) {
             for (std::uint32_t k : slab.touched) {
-                clamp_body_to_walls(walls, b, k);
-                note_moved(ws.was_moved, slab.moved, k);
+                std::uint32_t const i = slot_of(k);
+                clamp_to_walls(walls, packed(k).x, b.v[i], packed(k).radius, packed(k).inverse_mass);
+                if (std::exchange(ws.pushed[k], std::uint8_t{1}) == 0)
+                    slab.pushed.push_back(k);
+                note_moved(ws.was_moved, slab.moved, i);
             }
         });
         if (std::all_of(ws.slabs.begin(), ws.slabs.end(),
                         [](contact_slab const& slab) { return slab.touched.empty(); }))
             break;
     }
+    each_slab([&](contact_slab& slab) {
+        for (std::uint32_t k : slab.pushed) {
+            b.x[slot_of(k)] = packed(k).x;
+            ws.pushed[k] = 0;
+        }
+    });
     for (contact_slab const& slab : ws.slabs)
         stats.sphere_contacts += slab.responses;
 }
@@ -389,7 +416,6 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     auto& free_a = workspace.free_acceleration;
     free_a.resize(n);
     workspace.was_moved.resize(n);
-    workspace.mark.assign(n, 0);
     workspace.wall_chunks.resize(chunk_count(n));
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
         resolve_walls_discrete(settings, wall_tests, bodies, h, free_a, begin, end, workspace.was_moved,

@@ -90,14 +90,18 @@ struct collision_bodies
 };
 
 /// Discrete mode: the sphere pairs of one slab of the sphere grid and what its passes changed.
+/// Spheres are named by their position in the grid's cell order.
 struct contact_slab
 {
-    std::vector<box_pair> near;         ///< boxes overlap: body slots, in resolution order
-    std::vector<box_pair> contacts;     ///< the near pairs that touch, in the same order
+    std::vector<sphere_pair> near;      ///< boxes overlap, in resolution order
+    std::vector<sphere_pair> contacts;  ///< the near pairs that touch, in the same order
     std::vector<std::uint32_t> touched; ///< the spheres a pass changed that this slab lists
-    std::vector<std::uint32_t> moved;   ///< the spheres its position passes moved
+    std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved
+    std::vector<std::uint32_t> moved;   ///< of those, the body slots no response moved before
     std::uint64_t responses = 0;        ///< sphere–sphere responses
 };
+
+
 
 /// Discrete mode: what the wall pass did to one chunk of bodies.
 struct wall_chunk
@@ -117,7 +121,9 @@ public:
     sphere_grid grid;                   ///< discrete mode: the spheres in cell order
     std::vector<contact_slab> slabs;    ///< discrete mode: one per slab of the grid
     std::vector<wall_chunk> wall_chunks; ///< discrete mode: one per chunk of bodies
+    std::vector<std::uint32_t> ranks;   ///< discrete mode: position in cell order by body slot
     std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
+    std::vector<std::uint8_t> pushed;   ///< discrete mode: 1 for a sphere a position pass moved
     std::vector<std::uint32_t> moved;   ///< discrete mode: the spheres walls and boxes moved
     std::vector<std::uint8_t> was_moved; ///< discrete mode: 1 for the spheres any response moved
     std::vector<body_path> paths;       ///< continuous mode: each body's path in this step

@@ -54,7 +54,8 @@ struct chunk_extremes
 // reach = max|x| / (2·r_max) and u = 2^-53, the computed quotients of two such centres differ
 // by at most 1 (the rounding adds at most u·(4·reach + 1) relative to h), so their cells are
 // the same or adjacent on every axis. The same argument as uniform_grid.cpp's, for centres.
-bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius, parallel_for* loops)
+bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
+                        std::span<double const> inverse_mass, parallel_for* loops)
 {
     slab_begin_.assign(1, 0);
     slab_cell_.assign(1, 0);
@@ -79,9 +80,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         found[c] = e;
     });
     chunk_extremes all;
-    std::vector<std::uint32_t> first_entry(chunks); // of each chunk's spheres, in slot order
     for (std::size_t c = 0; c < chunks; ++c) {
-        first_entry[c] = all.spheres;
         all.spheres += found[c].spheres;
         all.largest_radius = std::max(all.largest_radius, found[c].largest_radius);
         all.lowest = all.lowest.cwiseMin(found[c].lowest);
@@ -124,30 +123,36 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         slab_cell_[s] = (1 + s * width) * stride_x_;
     slab_cell_[slabs] = *cells + 1;
 
-    // 4. Each sphere's cell key and slab, in slot order, counted per chunk and slab.
-    entries_.resize(all.spheres);
-    slab_of_entry_.resize(all.spheres);
+    // 4. Each sphere's cell key and slab, and how many spheres each chunk of bodies has in
+    //    each slab; then where each chunk's share of a slab goes, after the earlier chunks'
+    //    shares, so that every slab holds its spheres in slot order.
+    auto const cell_of = [&](std::size_t i, Eigen::Index axis) {
+        return static_cast<std::uint64_t>(floor_to_integer(x[i][axis] / cell_size) -
+                                          lowest_cell[static_cast<std::size_t>(axis)] + 1);
+    };
+    // A table of each x-cell's slab spares a 64-bit division per sphere (the padding cells
+    // belong to the first and last slab).
+    std::size_t const table_x = dense_ ? static_cast<std::size_t>(size[0]) : 0;
+    slab_of_x_.resize(table_x);
+    for (std::size_t cx = 0; cx < table_x; ++cx)
+        slab_of_x_[cx] = static_cast<std::uint32_t>(std::min<std::uint64_t>((std::max<std::uint64_t>(cx, 1) - 1) / width, slabs - 1));
+    auto const slab_of_x_cell = [&](std::uint64_t cx) {
+        return dense_ ? slab_of_x_[cx] : static_cast<std::uint32_t>((cx - 1) / width);
+    };
     chunk_slab_start_.assign(chunks * slabs, 0);
+    keys_.resize(n);
+    slabs_.resize(n);
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        std::uint32_t k = first_entry[c];
         std::uint32_t* const count = chunk_slab_start_.data() + c * slabs;
         for (std::size_t i = begin; i < end; ++i) {
             if (!(radius[i] > 0.0))
                 continue;
-            auto const cell = [&](std::size_t axis) {
-                return static_cast<std::uint64_t>(
-                    floor_to_integer(x[i][static_cast<Eigen::Index>(axis)] / cell_size) - lowest_cell[axis] + 1);
-            };
-            std::uint64_t const cx = cell(0);
-            entries_[k] = {cx * stride_x_ + cell(1) * stride_y_ + cell(2), static_cast<std::uint32_t>(i)};
-            slab_of_entry_[k] = static_cast<std::uint32_t>((cx - 1) / width);
-            ++count[slab_of_entry_[k]];
-            ++k;
+            std::uint64_t const cx = cell_of(i, 0);
+            keys_[i] = cx * stride_x_ + cell_of(i, 1) * stride_y_ + cell_of(i, 2);
+            slabs_[i] = slab_of_x_cell(cx);
+            ++count[slabs_[i]];
         }
     });
-
-    // 5. Entries by slab, in slot order within each: every chunk's share of a slab goes after
-    //    the earlier chunks' shares.
     slab_begin_.resize(slabs + 1);
     std::uint32_t next = 0;
     for (std::uint32_t s = 0; s < slabs; ++s) {
@@ -156,22 +161,26 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
             next += std::exchange(chunk_slab_start_[c * slabs + s], next);
     }
     slab_begin_[slabs] = next;
+
+    // 5. Each sphere with its cell key, to its slab.
     by_slab_.resize(all.spheres);
-    run_loop(loops, chunks, [&](std::size_t c) {
+    run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
         std::uint32_t* const start = chunk_slab_start_.data() + c * slabs;
-        std::uint32_t const end = c + 1 < chunks ? first_entry[c + 1] : all.spheres;
-        for (std::uint32_t k = first_entry[c]; k < end; ++k)
-            by_slab_[start[slab_of_entry_[k]]++] = entries_[k];
+        for (std::size_t i = begin; i < end; ++i) {
+            if (!(radius[i] > 0.0))
+                continue;
+            by_slab_[start[slabs_[i]]++] = {keys_[i], static_cast<std::uint32_t>(i),
+                                            {x[i], radius[i], inverse_mass[i]}};
+        }
     });
 
     // 6. Within each slab, the spheres sorted by cell, then slot: a counting sort over the
     //    slab's cells, stable, which leaves the table of where each cell starts (dense), or a
-    //    comparison sort (sparse). Then the spheres in that order. The slabs' cells and
-    //    entries are disjoint, so slabs sort at the same time.
+    //    comparison sort (sparse). The slabs' cells and entries are disjoint, so slabs sort
+    //    at the same time.
     if (dense_)
         cell_begin_.resize(*cells + 1);
-    spheres_.resize(all.spheres);
-    rank_.resize(n);
+    filed_.resize(all.spheres);
     run_loop(loops, slabs, [&](std::size_t s) {
         std::uint32_t const begin = slab_begin_[s], end = slab_begin_[s + 1];
         if (dense_) {
@@ -184,18 +193,33 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
             for (auto cell = first_cell; cell != last_cell; ++cell)
                 *cell = sum += *cell; // each cell's end, for now
             for (std::uint32_t k = end; k-- > begin;)
-                entries_[--cell_begin_[by_slab_[k].cell]] = by_slab_[k]; // now each cell's start
+                filed_[--cell_begin_[by_slab_[k].cell]] = by_slab_[k]; // now each cell's start
         } else {
-            std::copy(by_slab_.begin() + begin, by_slab_.begin() + end, entries_.begin() + begin);
-            std::sort(entries_.begin() + begin, entries_.begin() + end);
-        }
-        for (std::uint32_t k = begin; k < end; ++k) {
-            std::uint32_t const i = entries_[k].slot;
-            spheres_[k] = {x[i].x(), x[i].y(), x[i].z(), radius[i]};
-            rank_[i] = k;
+            auto const first = filed_.begin() + begin, last = filed_.begin() + end;
+            std::copy(by_slab_.begin() + begin, by_slab_.begin() + end, first);
+            std::sort(first, last, [](filed_sphere const& a, filed_sphere const& b) {
+                return a.cell != b.cell ? a.cell < b.cell : a.slot < b.slot;
+            });
         }
     });
     return true;
+}
+
+void sphere_grid::file_in_slot_order(std::span<vec3 const> x, std::span<double const> radius,
+                                     std::span<double const> inverse_mass)
+{
+    filed_.clear();
+    for (std::size_t i = 0; i < x.size(); ++i)
+        if (radius[i] > 0.0)
+            filed_.push_back({0, static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
+    slab_begin_ = {0, static_cast<std::uint32_t>(filed_.size())};
+}
+
+void sphere_grid::ranks(std::size_t n, std::vector<std::uint32_t>& out) const
+{
+    out.resize(n);
+    for (std::uint32_t k = 0; k < filed_.size(); ++k)
+        out[filed_[k].slot] = k;
 }
 
 std::size_t sphere_grid::slab_of(std::uint32_t rank) const
@@ -209,54 +233,52 @@ std::size_t sphere_grid::slab_of(std::uint32_t rank) const
 // (z + 1, which follows its own in the table, so the two are one run) and four rows of three
 // cells (z − 1 to z + 1, one run each) at (y + 1), (x + 1, y − 1), (x + 1, y), (x + 1, y + 1).
 // The runs come in cell order, so the output is sorted without a sort.
-void sphere_grid::near_pairs(std::size_t s, std::vector<box_pair>& near,
-                             std::vector<box_pair>& touching) const
+void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
+                             std::vector<sphere_pair>& touching) const
 {
     if (dense_) {
         near_pairs(s, near, touching, [&](std::uint64_t key) { return cell_begin_[key]; });
     } else {
         near_pairs(s, near, touching, [&](std::uint64_t key) {
-            auto const found = std::partition_point(entries_.begin(), entries_.end(),
-                                                    [&](cell_entry const& e) { return e.cell < key; });
-            return static_cast<std::uint32_t>(found - entries_.begin());
+            auto const found = std::partition_point(filed_.begin(), filed_.end(),
+                                                    [&](filed_sphere const& e) { return e.cell < key; });
+            return static_cast<std::uint32_t>(found - filed_.begin());
         });
     }
 }
 
 template <class First>
-void sphere_grid::near_pairs(std::size_t s, std::vector<box_pair>& near, std::vector<box_pair>& touching,
-                             First const& first_at_or_after) const
+void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
+                             std::vector<sphere_pair>& touching, First const& first_at_or_after) const
 {
     near.clear();
     touching.clear();
     std::array<std::uint64_t, 4> const row_offsets = {stride_y_, stride_x_ - stride_y_, stride_x_,
                                                       stride_x_ + stride_y_};
     for (std::uint32_t p = slab_begin_[s]; p < slab_begin_[s + 1]; ++p) {
-        std::uint64_t const key = entries_[p].cell;
+        std::uint64_t const key = filed_[p].cell;
         std::array<std::array<std::uint32_t, 2>, 5> runs;
         runs[0] = {p + 1, first_at_or_after(key + 2)};
         for (std::size_t k = 0; k < 4; ++k)
             runs[k + 1] = {first_at_or_after(key + row_offsets[k] - 1),
                            first_at_or_after(key + row_offsets[k] + 2)};
-        filed_sphere const a = spheres_[p];
-        double const a_lo_x = a.x - a.r, a_lo_y = a.y - a.r, a_lo_z = a.z - a.r;
-        double const a_hi_x = a.x + a.r, a_hi_y = a.y + a.r, a_hi_z = a.z + a.r;
+        packed_sphere const& a = filed_[p].sphere;
+        vec3 const a_lo = (a.x.array() - a.radius).matrix(), a_hi = (a.x.array() + a.radius).matrix();
         for (auto const& [begin, end] : runs) {
             for (std::uint32_t q = begin; q < end; ++q) {
-                filed_sphere const& b = spheres_[q];
+                packed_sphere const& b = filed_[q].sphere;
                 // overlaps() from aabb.hpp on [x − r, x + r]: max(lo) <= min(hi) is lo_a <= hi_b
                 // and lo_b <= hi_a (as lo <= hi), tested without a branch per axis
-                bool const meet = (a_lo_x <= b.x + b.r) & (b.x - b.r <= a_hi_x) &
-                                  (a_lo_y <= b.y + b.r) & (b.y - b.r <= a_hi_y) &
-                                  (a_lo_z <= b.z + b.r) & (b.z - b.r <= a_hi_z);
+                bool const meet = (a_lo.x() <= b.x.x() + b.radius) & (b.x.x() - b.radius <= a_hi.x()) &
+                                  (a_lo.y() <= b.x.y() + b.radius) & (b.x.y() - b.radius <= a_hi.y()) &
+                                  (a_lo.z() <= b.x.z() + b.radius) & (b.x.z() - b.radius <= a_hi.z());
                 if (!meet)
                     continue;
-                std::uint32_t const i = entries_[p].slot, j = entries_[q].slot;
-                box_pair const pair{std::min(i, j), std::max(i, j)};
+                sphere_pair const pair = filed_[p].slot < filed_[q].slot ? sphere_pair{p, q} : sphere_pair{q, p};
                 near.push_back(pair);
                 // the discrete step's contact test: |x_i − x_j|² against (r_i + r_j)²
-                double const reach = a.r + b.r;
-                if (!((vec3(a.x, a.y, a.z) - vec3(b.x, b.y, b.z)).squaredNorm() > reach * reach))
+                double const reach = a.radius + b.radius;
+                if (!((a.x - b.x).squaredNorm() > reach * reach))
                     touching.push_back(pair);
             }
         }
