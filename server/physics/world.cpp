@@ -137,18 +137,30 @@ std::size_t world::escaped() const
     return count;
 }
 
-void world::keep_step_start()
+void world::keep_step_start_and_integrate(double h)
 {
     auto const x = bodies_.positions();
     auto const v = bodies_.velocities();
     step_start_x_.resize(x.size());
     step_start_v_.resize(v.size());
+    if (forces_.empty()) {
+        // The drift, with x₀ and v₀ kept on the way: one pass over memory instead of two.
+        run_chunks(loops_, x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+            for (std::size_t i = begin; i < end; ++i) {
+                step_start_x_[i] = x[i];
+                step_start_v_[i] = v[i];
+                x[i] += h * v[i];
+            }
+        });
+        return;
+    }
     run_chunks(loops_, x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
         std::copy(x.begin() + static_cast<std::ptrdiff_t>(begin), x.begin() + static_cast<std::ptrdiff_t>(end),
                   step_start_x_.begin() + static_cast<std::ptrdiff_t>(begin));
         std::copy(v.begin() + static_cast<std::ptrdiff_t>(begin), v.begin() + static_cast<std::ptrdiff_t>(end),
                   step_start_v_.begin() + static_cast<std::ptrdiff_t>(begin));
     });
+    integrate(h);
 }
 
 void world::step(double dt)
@@ -162,8 +174,7 @@ void world::step(double dt)
             integrate(h);
             continue;
         }
-        keep_step_start();
-        integrate(h);
+        keep_step_start_and_integrate(h);
         resolve_collisions(settings_.collisions, walls_, obstacles_,
                            {bodies_.positions(), bodies_.velocities(), step_start_x_,
                             step_start_v_, bodies_.inverse_masses(), bodies_.radii()},

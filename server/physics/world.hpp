@@ -81,7 +81,7 @@ public:
 
 private:
     void integrate(double h);
-    void keep_step_start();
+    void keep_step_start_and_integrate(double h); ///< x₀, v₀ for the collisions, then integrate
 
     world_settings settings_;
     body_storage bodies_;
