@@ -2,6 +2,7 @@
 // dt = 1/60 s) in each collision mode: the cost side of the discrete/continuous trade.
 // The accuracy side is in tests/physics/collisions_test.cpp.
 
+#include "physics/thread_pool.hpp"
 #include "physics/world.hpp"
 
 #include <benchmark/benchmark.h>
@@ -56,9 +57,28 @@ void gas_step(benchmark::State& state, collision_mode mode)
         static_cast<double>(w.collisions().contacts() - contacts_before) / static_cast<double>(state.iterations()));
 }
 
+// The same step with the world lent a pool of T threads (arguments T, N); wall time, since
+// the work is spread over threads.
+void gas_step_threads(benchmark::State& state, collision_mode mode)
+{
+    kugel::physics::thread_pool pool(static_cast<std::size_t>(state.range(0)));
+    world w = gas(mode, state.range(1));
+    w.set_parallel_for(&pool);
+    w.step(1.0 / 60.0);
+    auto const contacts_before = w.collisions().contacts();
+    for (auto _ : state)
+        w.step(1.0 / 60.0);
+    state.SetItemsProcessed(state.iterations() * state.range(1));
+    state.counters["contacts_per_step"] = benchmark::Counter(
+        static_cast<double>(w.collisions().contacts() - contacts_before) / static_cast<double>(state.iterations()));
+}
+
 BENCHMARK_CAPTURE(gas_step, discrete, collision_mode::discrete)
     ->RangeMultiplier(10)->Range(1000, 1000000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(gas_step, continuous, collision_mode::continuous)
     ->RangeMultiplier(10)->Range(1000, 100000)->Unit(benchmark::kMillisecond);
+
+BENCHMARK_CAPTURE(gas_step_threads, discrete, collision_mode::discrete)
+    ->ArgsProduct({{2}, {1000, 10000, 100000, 1000000}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace

@@ -3,7 +3,8 @@
 #   cmake -DBENCH=path/to/kugel_bench -DOUT=dir -P smoke_test.cmake
 # A family is a benchmark's name without its last argument (integrator_step/3,
 # gravity_tree/theta10:5, gas_step/continuous, decode_spawn); its smallest size is the
-# smallest number in that last argument. Fails when listing or running fails, when a
+# smallest number in that last argument (a /real_time suffix, for benchmarks that run on
+# several threads, is not an argument). Fails when listing or running fails, when a
 # family's instance did not run, or when one reports an error.
 cmake_minimum_required(VERSION 3.25)
 
@@ -17,7 +18,7 @@ string(REPLACE "\n" ";" names "${listing}")
 
 set(families "")
 foreach(name IN LISTS names)
-  if(name MATCHES "^(.*)/([A-Za-z0-9_]+:)?([0-9]+)$")
+  if(name MATCHES "^(.*)/([A-Za-z0-9_]+:)?([0-9]+)(/real_time)?$")
     set(family "${CMAKE_MATCH_1}")
     set(size "${CMAKE_MATCH_3}")
   else()

@@ -13,6 +13,10 @@ namespace kugel::physics {
 void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats);
+void resolve_discrete(collision_settings const& settings, std::span<wall const> walls,
+                      std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                      double h, collision_workspace& workspace, collision_stats& stats,
+                      parallel_for* loops);
 
 namespace {
 
@@ -31,73 +35,120 @@ void sphere_boxes(std::span<vec3 const> x, std::span<double const> radius, colli
     }
 }
 
-/// True when a sphere of radius r at x is clear of every wall (n·x >= offset + r for all):
-/// the common case, tested without a branch per wall.
-bool clear_of_walls(std::span<wall const> walls, vec3 const& x, double r)
+/// The walls, with the axis-aligned ones (normal ±e_k, as make_plane stores them) also kept
+/// as bounds per coordinate: for those, n·x is ±x_k exactly, so "n·x >= offset + r for every
+/// wall" becomes two comparisons per axis, bit for bit the same test. Built once per step.
+class wall_set
 {
-    bool clear = true;
-    for (wall const& w : walls)
-        clear &= w.surface.normal.dot(x) >= w.surface.offset + r;
-    return clear;
+public:
+    explicit wall_set(std::span<wall const> walls) : all(walls)
+    {
+        for (wall const& w : walls) {
+            vec3 const& n = w.surface.normal;
+            Eigen::Index axis = 0;
+            if (n.cwiseAbs().maxCoeff(&axis) == 1.0 && (n.array() == 0.0).count() == 2) {
+                (n[axis] > 0.0 ? below_ : above_)[axis] = std::max((n[axis] > 0.0 ? below_ : above_)[axis],
+                                                                   w.surface.offset);
+            } else {
+                oblique_.push_back(w);
+            }
+        }
+    }
+
+    /// True when a sphere of radius r at x is clear of every wall (n·x >= offset + r for all):
+    /// the common case, tested without a branch per wall.
+    bool clear(vec3 const& x, double r) const
+    {
+        bool clear = (x.x() >= below_.x() + r) & (x.y() >= below_.y() + r) & (x.z() >= below_.z() + r) &
+                     (-x.x() >= above_.x() + r) & (-x.y() >= above_.y() + r) & (-x.z() >= above_.z() + r);
+        for (wall const& w : oblique_)
+            clear &= w.surface.normal.dot(x) >= w.surface.offset + r;
+        return clear;
+    }
+
+    /// True when a sphere at x is farther than `reach` from every wall (n·x > offset + reach
+    /// for all).
+    bool beyond(vec3 const& x, double reach) const
+    {
+        bool beyond = (x.x() > below_.x() + reach) & (x.y() > below_.y() + reach) &
+                      (x.z() > below_.z() + reach) & (-x.x() > above_.x() + reach) &
+                      (-x.y() > above_.y() + reach) & (-x.z() > above_.z() + reach);
+        for (wall const& w : oblique_)
+            beyond &= w.surface.normal.dot(x) > w.surface.offset + reach;
+        return beyond;
+    }
+
+    std::span<wall const> all;
+
+private:
+    static constexpr double none = -std::numeric_limits<double>::infinity();
+    vec3 below_ = vec3::Constant(none); ///< largest offset of the walls with normal +e_k
+    vec3 above_ = vec3::Constant(none); ///< largest offset of the walls with normal −e_k
+    std::vector<wall> oblique_;         ///< every other wall
+};
+
+/// Lists sphere i in `moved` unless a discrete response moved it before in this step.
+void note_moved(std::span<std::uint8_t> was_moved, std::vector<std::uint32_t>& moved, std::uint32_t i)
+{
+    if (std::exchange(was_moved[i], std::uint8_t{1}) == 0)
+        moved.push_back(i);
 }
 
-/// True when a sphere of radius r at x is farther than `reach` from every wall (n·x > offset
-/// + reach for all).
-bool beyond_walls(std::span<wall const> walls, vec3 const& x, double reach)
+/// Pushes a sphere (radius r, inverse mass 1/m) at x out of every wall it is inside and
+/// removes its velocity v into that wall.
+void clamp_to_walls(wall_set const& walls, vec3& x, vec3& v, double r, double inverse_mass)
 {
-    bool beyond = true;
-    for (wall const& w : walls)
-        beyond &= w.surface.normal.dot(x) > w.surface.offset + reach;
-    return beyond;
-}
-
-/// Lists sphere i among those the discrete response moved (once).
-void note_moved(collision_workspace& ws, std::uint32_t i)
-{
-    if (std::exchange(ws.was_moved[i], std::uint8_t{1}) == 0)
-        ws.moved.push_back(i);
-}
-
-/// Pushes sphere i out of every wall it is inside and removes its velocity into that wall.
-void clamp_body_to_walls(std::span<wall const> walls, collision_bodies const& b, std::size_t i)
-{
-    double const r = b.radius[i];
-    if (r <= 0.0 || b.inverse_mass[i] == 0.0 || clear_of_walls(walls, b.x[i], r))
+    if (r <= 0.0 || inverse_mass == 0.0 || walls.clear(x, r))
         return;
-    for (wall const& w : walls) {
+    for (wall const& w : walls.all) {
         vec3 const& n = w.surface.normal;
-        double const depth = w.surface.offset + r - n.dot(b.x[i]);
+        double const depth = w.surface.offset + r - n.dot(x);
         if (depth <= 0.0)
             continue;
-        b.x[i] += depth * n;
-        double const vn = b.v[i].dot(n);
+        x += depth * n;
+        double const vn = v.dot(n);
         if (vn < 0.0)
-            b.v[i] -= vn * n;
+            v -= vn * n;
     }
+}
+
+void clamp_body_to_walls(wall_set const& walls, collision_bodies const& b, std::size_t i)
+{
+    clamp_to_walls(walls, b.x[i], b.v[i], b.radius[i], b.inverse_mass[i]);
 }
 
 /// Discrete walls: a sphere found inside a wall at the end of the step is taken back to the
 /// time it crossed, found by the lecture's linear interpolation between tᵢ and tᵢ₊₁, bounces
 /// there, and finishes the step on its new path. Up to four walls per step (a corner).
-void resolve_walls_discrete(collision_settings const& settings, std::span<wall const> walls,
-                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
-                            collision_workspace& ws, collision_stats& stats)
+/// Bodies [begin, end), each on its own; also notes each one's free acceleration.
+void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
+                            collision_bodies const& b, double h, std::span<vec3> free_a,
+                            std::size_t begin, std::size_t end, std::span<std::uint8_t> was_moved,
+                            wall_chunk& out)
 {
-    for (std::uint32_t i = 0; i < b.x.size(); ++i) {
+    out.moved.clear();
+    out.responses = 0;
+    for (std::size_t k = begin; k < end; ++k) {
+        auto const i = static_cast<std::uint32_t>(k);
+        // Without forces the change is zero, and then so is the quotient (0/h keeps the sign
+        // of zero): the division, slow beside everything else here, is skipped.
+        vec3 const change = b.v[i] - b.v0[i];
+        free_a[i] = (change.array() == 0.0).all() ? change : vec3(change / h);
+        was_moved[i] = 0;
         double const r = b.radius[i];
-        if (r <= 0.0 || b.inverse_mass[i] == 0.0 || clear_of_walls(walls, b.x[i], r))
+        if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))
             continue;
         body_path path{b.x0[i], b.v0[i], free_a[i], 0.0};
-        vec3 end = b.x[i];
+        vec3 end_position = b.x[i];
         bool bounced = false;
         for (int bounce = 0; bounce < 4; ++bounce) {
             wall const* hit = nullptr;
             double hit_time = std::numeric_limits<double>::infinity();
-            for (wall const& w : walls) {
-                if (w.surface.normal.dot(end) >= w.surface.offset + r)
+            for (wall const& w : walls.all) {
+                if (w.surface.normal.dot(end_position) >= w.surface.offset + r)
                     continue;
                 double const t = std::clamp(
-                    plane_contact_time_linear(w.surface, r, path.x, path.t, end, h), path.t, h);
+                    plane_contact_time_linear(w.surface, r, path.x, path.t, end_position, h), path.t, h);
                 if (t < hit_time) {
                     hit_time = t;
                     hit = &w;
@@ -108,21 +159,21 @@ void resolve_walls_discrete(collision_settings const& settings, std::span<wall c
             path.advance_to(hit_time);
             if (detail::respond_to_surface(path, hit->surface.normal, hit->surface.offset + r,
                                            hit->damping, hit->friction, settings, h))
-                ++stats.wall_contacts;
-            end = path.position_at(h);
+                ++out.responses;
+            end_position = path.position_at(h);
             bounced = true;
         }
         if (bounced) {
-            b.x[i] = end;
+            b.x[i] = end_position;
             b.v[i] = path.velocity_at(h);
-            note_moved(ws, i);
+            note_moved(was_moved, out.moved, i);
         }
     }
 }
 
 /// Discrete boxes: a sphere overlapping a box is pushed out along the contact normal and
 /// bounces by the wall rule.
-void resolve_obstacles_discrete(collision_settings const& settings, std::span<wall const> walls,
+void resolve_obstacles_discrete(collision_settings const& settings, wall_set const& walls,
                                 std::span<obstacle const> obstacles, collision_bodies const& b,
                                 double h, std::span<vec3 const> free_a, collision_workspace& ws,
                                 collision_stats& stats)
@@ -143,20 +194,19 @@ void resolve_obstacles_discrete(collision_settings const& settings, std::span<wa
             b.x[i] = path.x;
             b.v[i] = path.v;
             clamp_body_to_walls(walls, b, i);
-            note_moved(ws, i);
+            note_moved(ws.was_moved, ws.moved, i);
         }
     }
 }
 
 /// A sphere touching a wall (to a relative 1e-9 of its radius) and moving into it stops
 /// moving into it: the wall carries it.
-void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies const& b, std::size_t i)
+void stop_body_at_touched_walls(wall_set const& walls, collision_bodies const& b, std::size_t i)
 {
-    double const r = b.radius[i];
-    double const reach = r * (1.0 + 1e-9);
-    if (beyond_walls(walls, b.x[i], reach))
+    double const reach = b.radius[i] * (1.0 + 1e-9);
+    if (walls.beyond(b.x[i], reach))
         return;
-    for (wall const& w : walls) {
+    for (wall const& w : walls.all) {
         vec3 const& n = w.surface.normal;
         double const vn = b.v[i].dot(n);
         if (vn < 0.0 && n.dot(b.x[i]) <= w.surface.offset + reach)
@@ -164,90 +214,181 @@ void stop_body_at_touched_walls(std::span<wall const> walls, collision_bodies co
     }
 }
 
-/// Discrete sphere pairs. The broadphase's candidates at the end positions are the near
-/// pairs; those that touch are the step's contacts. Velocity passes: each contact that
-/// approaches exchanges momentum along its normal (restitution e, none below the rest
-/// threshold), and a sphere pressed into a wall it touches loses that normal speed; repeated,
-/// so a stack passes its weight down to the floor within the step instead of sinking into
-/// itself. Position passes: every near pair that overlaps by then is pushed apart in
-/// proportion to the inverse masses (near, not only the contacts: a push can bring two
-/// neighbours into overlap), and walls push back in every pass, so stacks settle on them.
-/// After the broadphase, only near pairs are visited, and only the spheres whose velocity or
-/// position a pass changed are checked against the walls (each sphere on its own, so order
-/// does not matter).
-void resolve_pairs_discrete(collision_settings const& settings, std::span<wall const> walls,
-                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
-                            collision_workspace& ws, collision_stats& stats)
+/// Files the spheres in the grid and fills the slabs' near pairs, the pairs whose boxes
+/// overlap at the end positions, and their contacts, the near pairs that touch: each pair in
+/// the slab of its first sphere in the grid's cell order, in that order. The grid finds the
+/// pairs itself when the scene asks for it; another broadphase's pairs are put in the same
+/// order, so that the broadphase changes the cost only. When the grid cannot hold the scene,
+/// one slab holds every pair, in slot order. Returns the number of slabs.
+std::size_t find_near_pairs(collision_settings const& settings, collision_bodies const& b,
+                            collision_workspace& ws, parallel_for* loops)
 {
+    sphere_grid& grid = ws.grid;
+    bool const gridded = grid.build(b.x, b.radius, b.inverse_mass, loops);
+    if (!gridded)
+        grid.file_in_slot_order(b.x, b.radius, b.inverse_mass);
+    std::size_t const slabs = grid.slab_count();
+    ws.slabs.resize(slabs);
+    if (gridded && settings.broadphase == broadphase_kind::uniform_grid) {
+        run_loop(loops, slabs, [&](std::size_t s) { grid.near_pairs(s, ws.slabs[s].near, ws.slabs[s].contacts); });
+        return slabs;
+    }
     sphere_boxes(b.x, b.radius, ws);
     find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
-    auto& near = ws.pairs;
-    auto& contacts = ws.contacts;
-    auto& touched = ws.touched;
-    contacts.clear();
-    touched.clear();
-    ws.mark.assign(b.x.size(), 0);
-    std::uint32_t stamp = 1;
-    for (box_pair& p : near) {
-        std::uint32_t const i = ws.members[p.a], j = ws.members[p.b];
-        p = {i, j}; // from box indices to body slots
-        double const reach = b.radius[i] + b.radius[j];
-        if ((b.x[i] - b.x[j]).squaredNorm() > reach * reach)
-            continue;
-        contacts.push_back(p);
-        for (std::uint32_t k : {i, j})
-            if (std::exchange(ws.mark[k], stamp) != stamp)
-                touched.push_back(k); // the spheres whose velocity the passes may change
+    grid.ranks(b.x.size(), ws.ranks);
+    auto const in_cell_order = [&](box_pair const& p) {
+        std::uint32_t const i = ws.ranks[ws.members[p.a]], j = ws.ranks[ws.members[p.b]];
+        return box_pair{std::min(i, j), std::max(i, j)};
+    };
+    std::sort(ws.pairs.begin(), ws.pairs.end(), [&](box_pair const& p, box_pair const& q) {
+        return in_cell_order(p) < in_cell_order(q);
+    });
+    for (contact_slab& slab : ws.slabs) {
+        slab.near.clear();
+        slab.contacts.clear();
     }
+    for (box_pair const& p : ws.pairs) {
+        // members grow with the box index, so a is the sphere in the lower slot
+        sphere_pair const pair{ws.ranks[ws.members[p.a]], ws.ranks[ws.members[p.b]]};
+        contact_slab& slab = ws.slabs[grid.slab_of(std::min(pair.a, pair.b))];
+        slab.near.push_back(pair);
+        packed_sphere const& s = grid.sphere(pair.a);
+        packed_sphere const& t = grid.sphere(pair.b);
+        double const reach = s.radius + t.radius;
+        if (!((s.x - t.x).squaredNorm() > reach * reach))
+            slab.contacts.push_back(pair);
+    }
+    return slabs;
+}
 
-    auto normal_of = [&](std::size_t i, std::size_t j, double& gap) {
-        vec3 const d = b.x[i] - b.x[j];
+/// Discrete sphere pairs. The near pairs at the end positions are found first; those that
+/// touch are the step's contacts. Velocity passes: each contact that approaches exchanges
+/// momentum along its normal (restitution e, none below the rest threshold), and a sphere
+/// pressed into a wall it touches loses that normal speed; repeated, so a stack passes its
+/// weight down to the floor within the step instead of sinking into itself. Position passes:
+/// every near pair that overlaps by then is pushed apart in proportion to the inverse masses
+/// (near, not only the contacts: a push can bring two neighbours into overlap), and walls
+/// push back in every pass, so stacks settle on them. Only the spheres whose velocity or
+/// position a pass changed are checked against the walls (each sphere on its own, so order
+/// does not matter); a pass that moved nothing leaves nothing for the next.
+///
+/// Pairs are visited slab by slab, the even slabs first and then the odd ones, each in cell
+/// order (sphere_grid.hpp). The slabs of one parity share no sphere, so they run at the same
+/// time and the outcome is that order's, whatever the number of threads. A sphere listed by
+/// one slab in a pass is marked, so that no other slab lists it again. The position passes
+/// move the packed copies, which go back to the bodies at the end.
+void resolve_pairs_discrete(collision_settings const& settings, wall_set const& walls,
+                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
+                            collision_workspace& ws, collision_stats& stats, parallel_for* loops)
+{
+    std::size_t const slabs = find_near_pairs(settings, b, ws, loops);
+    sphere_grid& grid = ws.grid;
+    auto const packed = [&](std::uint32_t k) -> packed_sphere& { return grid.sphere(k); };
+    auto const slot_of = [&](std::uint32_t k) { return grid.slot(k); };
+    std::uint32_t const spheres = grid.slab_begin(slabs);
+    auto const by_parity = [&](auto const& work) {
+        for (std::size_t parity = 0; parity < 2; ++parity)
+            run_loop(loops, (slabs + 1 - parity) / 2,
+                     [&](std::size_t k) { work(ws.slabs[2 * k + parity]); });
+    };
+    auto const each_slab = [&](auto const& work) {
+        run_loop(loops, slabs, [&](std::size_t s) { work(ws.slabs[s]); });
+    };
+    ws.mark.assign(spheres, 0);
+    ws.pushed.resize(spheres); // all 0: each use clears what it set
+    std::uint32_t stamp = 1;
+    auto const list_once = [&](std::vector<std::uint32_t>& list, std::uint32_t k) {
+        if (std::exchange(ws.mark[k], stamp) != stamp)
+            list.push_back(k);
+    };
+
+    // The spheres in contacts that touch a wall: the velocity passes stop them at it. Positions
+    // do not change in those passes, so the list holds for all of them.
+    by_parity([&](contact_slab& slab) {
+        slab.touched.clear();
+        slab.pushed.clear();
+        slab.moved.clear();
+        slab.responses = 0;
+        for (sphere_pair const& p : slab.contacts) {
+            list_once(slab.touched, p.a);
+            list_once(slab.touched, p.b);
+        }
+        std::erase_if(slab.touched, [&](std::uint32_t k) {
+            return walls.beyond(packed(k).x, packed(k).radius * (1.0 + 1e-9));
+        });
+    });
+
+    auto normal_of = [&](std::uint32_t p, std::uint32_t q, double& gap) {
+        vec3 const d = packed(p).x - packed(q).x;
         double const distance = d.norm();
-        gap = distance - (b.radius[i] + b.radius[j]);
+        gap = distance - (packed(p).radius + packed(q).radius);
         return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
     };
     for (int pass = 0; pass < std::max(settings.velocity_iterations, 1); ++pass) {
-        for (box_pair const& c : contacts) {
-            std::size_t const i = c.a, j = c.b;
-            double gap = 0.0;
-            vec3 const n = normal_of(i, j, gap);
-            double const closing = (b.v[i] - b.v[j]).dot(n);
-            if (closing >= 0.0)
-                continue;
-            double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
-            double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
-            auto const w = collide_spheres(b.v[i], b.inverse_mass[i], b.v[j], b.inverse_mass[j], n, e);
-            b.v[i] = w.first;
-            b.v[j] = w.second;
-            stats.sphere_contacts += pass == 0 ? 1U : 0U;
-        }
-        for (std::uint32_t k : touched)
-            stop_body_at_touched_walls(walls, b, k);
+        by_parity([&](contact_slab& slab) {
+            for (sphere_pair const& c : slab.contacts) {
+                std::uint32_t const i = slot_of(c.a), j = slot_of(c.b);
+                double gap = 0.0;
+                vec3 const n = normal_of(c.a, c.b, gap);
+                double const closing = (b.v[i] - b.v[j]).dot(n);
+                if (closing >= 0.0)
+                    continue;
+                double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
+                double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
+                auto const w = collide_spheres(b.v[i], packed(c.a).inverse_mass, b.v[j],
+                                               packed(c.b).inverse_mass, n, e);
+                b.v[i] = w.first;
+                b.v[j] = w.second;
+                slab.responses += pass == 0 ? 1U : 0U;
+            }
+        });
+        each_slab([&](contact_slab& slab) {
+            for (std::uint32_t k : slab.touched)
+                stop_body_at_touched_walls(walls, b, slot_of(k));
+        });
     }
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
         ++stamp;
-        touched.clear(); // now: the spheres this pass moved
-        for (box_pair const& c : near) {
-            std::size_t const i = c.a, j = c.b;
-            double const reach = b.radius[i] + b.radius[j];
-            if ((b.x[i] - b.x[j]).squaredNorm() >= reach * reach)
-                continue; // most near pairs are apart: no square root for them
-            double const total = b.inverse_mass[i] + b.inverse_mass[j];
-            double gap = 0.0;
-            vec3 const n = normal_of(i, j, gap);
-            if (gap >= 0.0 || total == 0.0)
-                continue;
-            b.x[i] -= (gap * b.inverse_mass[i] / total) * n;
-            b.x[j] += (gap * b.inverse_mass[j] / total) * n;
-            for (std::uint32_t k : {c.a, c.b})
-                if (std::exchange(ws.mark[k], stamp) != stamp)
-                    touched.push_back(k);
-        }
-        for (std::uint32_t k : touched) {
-            clamp_body_to_walls(walls, b, k);
-            note_moved(ws, k);
-        }
+        by_parity([&](contact_slab& slab) {
+            slab.touched.clear(); // now: the spheres this pass moved
+            for (sphere_pair const& c : slab.near) {
+                packed_sphere& s = packed(c.a);
+                packed_sphere& t = packed(c.b);
+                double const reach = s.radius + t.radius;
+                if ((s.x - t.x).squaredNorm() >= reach * reach)
+                    continue; // most near pairs are apart: no square root for them
+                double const total = s.inverse_mass + t.inverse_mass;
+                double gap = 0.0;
+                vec3 const n = normal_of(c.a, c.b, gap);
+                if (gap >= 0.0 || total == 0.0)
+                    continue;
+                s.x -= (gap * s.inverse_mass / total) * n;
+                t.x += (gap * t.inverse_mass / total) * n;
+                list_once(slab.touched, c.a);
+                list_once(slab.touched, c.b);
+            }
+        });
+        each_slab([&](contact_slab& slab) {
+            for (std::uint32_t k : slab.touched) {
+                std::uint32_t const i = slot_of(k);
+                clamp_to_walls(walls, packed(k).x, b.v[i], packed(k).radius, packed(k).inverse_mass);
+                if (std::exchange(ws.pushed[k], std::uint8_t{1}) == 0)
+                    slab.pushed.push_back(k);
+                note_moved(ws.was_moved, slab.moved, i);
+            }
+        });
+        if (std::all_of(ws.slabs.begin(), ws.slabs.end(),
+                        [](contact_slab const& slab) { return slab.touched.empty(); }))
+            break;
     }
+    each_slab([&](contact_slab& slab) {
+        for (std::uint32_t k : slab.pushed) {
+            b.x[slot_of(k)] = packed(k).x;
+            ws.pushed[k] = 0;
+        }
+    });
+    for (contact_slab const& slab : ws.slabs)
+        stats.sphere_contacts += slab.responses;
 }
 
 } // namespace
@@ -264,34 +405,52 @@ std::string_view name(collision_mode mode) { return mode_names[static_cast<std::
 
 void resolve_discrete(collision_settings const& settings, std::span<wall const> walls,
                       std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                      double h, collision_workspace& workspace, collision_stats& stats)
+                      double h, collision_workspace& workspace, collision_stats& stats,
+                      parallel_for* loops)
 {
-    // Each body's acceleration over the step, from free motion alone, before any response.
+    // Each body's acceleration over the step from free motion alone, before any response,
+    // is noted by the wall pass, which handles each body on its own: in chunks, any number
+    // at a time, gathered in chunk order.
+    wall_set const wall_tests(walls);
+    std::size_t const n = bodies.x.size();
     auto& free_a = workspace.free_acceleration;
-    free_a.resize(bodies.x.size());
-    for (std::size_t i = 0; i < bodies.x.size(); ++i)
-        free_a[i] = (bodies.v[i] - bodies.v0[i]) / h;
+    free_a.resize(n);
+    workspace.was_moved.resize(n);
+    workspace.wall_chunks.resize(chunk_count(n));
+    run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
+        resolve_walls_discrete(settings, wall_tests, bodies, h, free_a, begin, end, workspace.was_moved,
+                               workspace.wall_chunks[c]);
+    });
     workspace.moved.clear();
-    workspace.was_moved.assign(bodies.x.size(), 0);
-    resolve_walls_discrete(settings, walls, bodies, h, free_a, workspace, stats);
-    resolve_obstacles_discrete(settings, walls, obstacles, bodies, h, free_a, workspace, stats);
-    resolve_pairs_discrete(settings, walls, bodies, h, free_a, workspace, stats);
+    for (wall_chunk const& chunk : workspace.wall_chunks) {
+        workspace.moved.insert(workspace.moved.end(), chunk.moved.begin(), chunk.moved.end());
+        stats.wall_contacts += chunk.responses;
+    }
+    resolve_obstacles_discrete(settings, wall_tests, obstacles, bodies, h, free_a, workspace, stats);
+    resolve_pairs_discrete(settings, wall_tests, bodies, h, free_a, workspace, stats, loops);
+
+    // No sphere is left inside a wall: the spheres the response moved are clamped (the position
+    // passes also clamp as they go); every other sphere was clear of every wall when the wall
+    // pass looked at it and has not moved since, so clamping it would change nothing. (Clamping
+    // a bounced sphere before the pair passes instead of after them left stacks settling four
+    // times worse.) Each moved sphere is in one of the lists, once.
+    for (std::uint32_t i : workspace.moved)
+        clamp_body_to_walls(wall_tests, bodies, i);
+    run_loop(loops, workspace.slabs.size(), [&](std::size_t s) {
+        for (std::uint32_t i : workspace.slabs[s].moved)
+            clamp_body_to_walls(wall_tests, bodies, i);
+    });
 }
 
 void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                        double h, collision_workspace& workspace, collision_stats& stats)
+                        double h, collision_workspace& workspace, collision_stats& stats,
+                        parallel_for* loops)
 {
-    // Neither mode leaves a sphere inside a wall: both clamp at the end. Continuous mode clamps
-    // every sphere. Discrete mode clamps the spheres its response moved (it also clamps inside
-    // its position passes); every other sphere was clear of every wall when the wall pass
-    // looked at it and has not moved since, so clamping it would change nothing. (Clamping a
-    // bounced sphere before the pair passes instead of after them left stacks settling four
-    // times worse.)
+    // Neither mode leaves a sphere inside a wall: discrete mode clamps the spheres it moved,
+    // continuous mode every sphere.
     if (settings.mode == collision_mode::discrete) {
-        resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats);
-        for (std::uint32_t i : workspace.moved)
-            clamp_body_to_walls(walls, bodies, i);
+        resolve_discrete(settings, walls, obstacles, bodies, h, workspace, stats, loops);
     } else if (settings.mode == collision_mode::continuous) {
         resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats);
         clamp_to_walls(walls, bodies);
@@ -300,8 +459,9 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
 
 void clamp_to_walls(std::span<wall const> walls, collision_bodies const& b)
 {
+    wall_set const wall_tests(walls);
     for (std::size_t i = 0; i < b.x.size(); ++i)
-        clamp_body_to_walls(walls, b, i);
+        clamp_body_to_walls(wall_tests, b, i);
 }
 
 double max_overlap(std::span<wall const> walls, std::span<obstacle const> obstacles,

@@ -4,7 +4,9 @@
 #include "body_path.hpp"
 #include "broadphase.hpp"
 #include "obb.hpp"
+#include "parallel_for.hpp"
 #include "plane.hpp"
+#include "sphere_grid.hpp"
 #include "vec.hpp"
 
 #include <cstdint>
@@ -87,6 +89,27 @@ struct collision_bodies
     std::span<double const> radius;
 };
 
+/// Discrete mode: the sphere pairs of one slab of the sphere grid and what its passes changed.
+/// Spheres are named by their position in the grid's cell order.
+struct contact_slab
+{
+    std::vector<sphere_pair> near;      ///< boxes overlap, in resolution order
+    std::vector<sphere_pair> contacts;  ///< the near pairs that touch, in the same order
+    std::vector<std::uint32_t> touched; ///< the spheres a pass changed that this slab lists
+    std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved
+    std::vector<std::uint32_t> moved;   ///< of those, the body slots no response moved before
+    std::uint64_t responses = 0;        ///< sphere–sphere responses
+};
+
+
+
+/// Discrete mode: what the wall pass did to one chunk of bodies.
+struct wall_chunk
+{
+    std::vector<std::uint32_t> moved; ///< the spheres that bounced
+    std::uint64_t responses = 0;      ///< sphere–wall responses
+};
+
 /// Scratch space reused across steps.
 class collision_workspace
 {
@@ -95,21 +118,27 @@ public:
     std::vector<aabb> boxes;
     std::vector<std::uint32_t> members; ///< body slot of each box
     std::vector<box_pair> pairs;
-    std::vector<box_pair> contacts;     ///< discrete mode: touching pairs, by body slot
-    std::vector<std::uint32_t> touched; ///< discrete mode: the spheres a pass changed
+    sphere_grid grid;                   ///< discrete mode: the spheres in cell order
+    std::vector<contact_slab> slabs;    ///< discrete mode: one per slab of the grid
+    std::vector<wall_chunk> wall_chunks; ///< discrete mode: one per chunk of bodies
+    std::vector<std::uint32_t> ranks;   ///< discrete mode: position in cell order by body slot
     std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
-    std::vector<std::uint32_t> moved;   ///< discrete mode: the spheres this step's response moved
-    std::vector<std::uint8_t> was_moved; ///< discrete mode: 1 for the spheres in `moved`
+    std::vector<std::uint8_t> pushed;   ///< discrete mode: 1 for a sphere a position pass moved
+    std::vector<std::uint32_t> moved;   ///< discrete mode: the spheres walls and boxes moved
+    std::vector<std::uint8_t> was_moved; ///< discrete mode: 1 for the spheres any response moved
     std::vector<body_path> paths;       ///< continuous mode: each body's path in this step
     std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
     std::vector<std::uint32_t> version; ///< continuous mode: bumped when a path changes
     std::vector<std::uint64_t> events_of; ///< continuous mode: events each body took part in
 };
 
-/// Resolves the contacts of one step of length h in the given mode (not `off`).
+/// Resolves the contacts of one step of length h in the given mode (not `off`). Discrete mode
+/// runs its loops over bodies and slabs through `loops` when given one; the result is the
+/// same bits with or without it.
 void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                        double h, collision_workspace& workspace, collision_stats& stats);
+                        double h, collision_workspace& workspace, collision_stats& stats,
+                        parallel_for* loops = nullptr);
 
 /// Pushes every sphere out of every wall it is inside and removes its velocity into the wall:
 /// the guarantee that no step leaves a position inside a wall.

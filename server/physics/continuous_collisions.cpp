@@ -19,7 +19,8 @@ namespace kugel::physics {
 
 void resolve_discrete(collision_settings const& settings, std::span<wall const> walls,
                       std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                      double h, collision_workspace& workspace, collision_stats& stats);
+                      double h, collision_workspace& workspace, collision_stats& stats,
+                      parallel_for* loops);
 
 namespace {
 
@@ -459,7 +460,7 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
         std::vector<vec3> const x0(bodies.x.begin(), bodies.x.end());
         std::vector<vec3> const v0(bodies.v.begin(), bodies.v.end());
         collision_bodies const settled{bodies.x, bodies.v, x0, v0, bodies.inverse_mass, bodies.radius};
-        resolve_discrete(settings, walls, obstacles, settled, h, workspace, stats);
+        resolve_discrete(settings, walls, obstacles, settled, h, workspace, stats, nullptr);
     }
 }
 

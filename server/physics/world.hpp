@@ -4,6 +4,7 @@
 #include "collisions.hpp"
 #include "forces.hpp"
 #include "integrators.hpp"
+#include "parallel_for.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -19,7 +20,8 @@ struct world_settings
 };
 
 /// The simulated world: bodies, the force models its scene named, and the integrator.
-/// Single-threaded and free of I/O; whoever owns it (a room, a headless run) drives step().
+/// Free of I/O and of threads of its own; whoever owns it (a room, a headless run) drives
+/// step(), and may lend it a parallel_for for its hot loops.
 class world
 {
 public:
@@ -35,6 +37,11 @@ public:
     bool apply_impulse(body_id id, vec3 const& impulse);
 
     void add_force(std::unique_ptr<force_model> model);
+
+    /// Lends the world a parallel_for for the loops of discrete collisions and of keeping the
+    /// step's start (nullptr: every loop on the calling thread). Not owned: it must outlive
+    /// every step() that uses it. Results are the same bits with or without it.
+    void set_parallel_for(parallel_for* loops) { loops_ = loops; }
 
     /// Static geometry that spheres collide with (when collisions are on). Throws
     /// std::invalid_argument for damping or friction outside [0, 1].
@@ -74,6 +81,7 @@ public:
 
 private:
     void integrate(double h);
+    void keep_step_start_and_integrate(double h); ///< x₀, v₀ for the collisions, then integrate
 
     world_settings settings_;
     body_storage bodies_;
@@ -84,6 +92,7 @@ private:
     mutable collision_workspace collision_workspace_;
     collision_stats collision_stats_;
     std::vector<vec3> step_start_x_, step_start_v_;
+    parallel_for* loops_ = nullptr; ///< lent by the owner, or none
     double time_ = 0.0;
     double time_compensation_ = 0.0; ///< rounding lost from time_, fed back into the next sum
     std::uint64_t steps_ = 0;

@@ -1,12 +1,16 @@
 #include "physics/broadphase.hpp"
+#include "physics/sphere_grid.hpp"
+#include "physics/thread_pool.hpp"
 
 #include <gtest/gtest.h>
 
 #include <algorithm>
 #include <cmath>
 #include <cstdlib>
+#include <iterator>
 #include <new>
 #include <random>
+#include <stdexcept>
 #include <string>
 #include <vector>
 
@@ -336,6 +340,188 @@ TEST(Broadphase, SteadyStateCallsDoNotAllocate)
             EXPECT_EQ(allocation_count, 0);
         }
     }
+}
+
+} // namespace
+} // namespace kugel::physics
+
+namespace kugel::physics {
+namespace {
+
+/// The sphere grid's near pairs of every slab, checking on the way what the discrete step's
+/// threads rely on (each slab's pairs come in cell order, start in that slab and end in it or
+/// the next) and that the touching ones are exactly the near pairs within r_a + r_b.
+/// Returned sorted by body slot, to compare with the broadphases.
+std::vector<box_pair> sphere_grid_pairs(std::vector<vec3> const& x, std::vector<double> const& r,
+                                        parallel_for* loops = nullptr)
+{
+    sphere_grid grid;
+    std::vector<double> const inverse_mass(x.size(), 1.0);
+    EXPECT_TRUE(grid.build(x, r, inverse_mass, loops));
+    std::vector<box_pair> all;
+    std::vector<sphere_pair> near, touching, expected_touching;
+    for (std::size_t s = 0; s < grid.slab_count(); ++s) {
+        grid.near_pairs(s, near, touching);
+        expected_touching.clear();
+        std::copy_if(near.begin(), near.end(), std::back_inserter(expected_touching), [&](sphere_pair const& p) {
+            std::uint32_t const i = grid.slot(p.a), j = grid.slot(p.b);
+            double const reach = r[i] + r[j];
+            return !((x[i] - x[j]).squaredNorm() > reach * reach);
+        });
+        EXPECT_TRUE(touching == expected_touching);
+        box_pair previous{0, 0};
+        for (sphere_pair const& p : near) {
+            EXPECT_LT(grid.slot(p.a), grid.slot(p.b));
+            box_pair const ranks{std::min(p.a, p.b), std::max(p.a, p.b)};
+            EXPECT_TRUE(&p == near.data() || previous < ranks);
+            previous = ranks;
+            EXPECT_EQ(grid.slab_of(ranks.a), s);
+            std::size_t const second = grid.slab_of(ranks.b);
+            EXPECT_TRUE(second == s || second == s + 1) << "slab " << s << " reaches " << second;
+            all.push_back({grid.slot(p.a), grid.slot(p.b)});
+        }
+    }
+    std::sort(all.begin(), all.end());
+    return all;
+}
+
+/// What the broadphases find among the same spheres (radius > 0), by body slot.
+std::vector<box_pair> broadphase_pairs(std::vector<vec3> const& x, std::vector<double> const& r)
+{
+    std::vector<aabb> boxes;
+    std::vector<std::uint32_t> slot;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (r[i] > 0.0) {
+            boxes.push_back(aabb_of_sphere(x[i], r[i]));
+            slot.push_back(static_cast<std::uint32_t>(i));
+        }
+    }
+    std::vector<box_pair> pairs = expect_all_kinds_agree(boxes);
+    for (box_pair& p : pairs)
+        p = {slot[p.a], slot[p.b]};
+    return pairs;
+}
+
+// The discrete step's own grid must find exactly the broadphases' pairs: random scenes with
+// radii spanning a factor of 20, point masses (radius 0, never filed), duplicates, centres
+// on both sides of the origin and far from it, and exactly touching spheres on a lattice.
+TEST(SphereGrid, FindsTheBroadphasesPairs)
+{
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (std::size_t count : {1, 2, 10, 300, 3000}) {
+        for (vec3 const& offset : {vec3(0, 0, 0), vec3(-3, -1, -2), vec3(1e6, -1e6, 5e5)}) {
+            SCOPED_TRACE("count " + std::to_string(count));
+            double const side = 0.5 * std::cbrt(static_cast<double>(count) + 1.0);
+            std::vector<vec3> x;
+            std::vector<double> r;
+            for (std::size_t i = 0; i < count; ++i) {
+                x.push_back(offset + side * vec3(unit(rng), unit(rng), unit(rng)));
+                r.push_back(i % 17 == 3 ? 0.0 : 0.01 + 0.19 * unit(rng));
+                if (i % 29 == 5) { // a duplicate of the previous sphere
+                    x.push_back(x.back());
+                    r.push_back(r.back());
+                }
+            }
+            auto const pairs = sphere_grid_pairs(x, r);
+            EXPECT_EQ(pairs, broadphase_pairs(x, r));
+            if (count >= 300) {
+                EXPECT_GT(pairs.size(), count / 10); // not a vacuous comparison
+            }
+        }
+    }
+    std::vector<vec3> lattice;
+    std::vector<double> radii;
+    for (int i = 0; i < 12; ++i)
+        for (int j = 0; j < 12; ++j)
+            for (int k = 0; k < 12; ++k) {
+                lattice.push_back(0.1 * vec3(i, j, k) - vec3(0.55, 0.55, 0.55));
+                radii.push_back(0.05);
+            }
+    auto const touching = sphere_grid_pairs(lattice, radii);
+    EXPECT_GT(touching.size(), 3U * 11U * 12U * 12U / 2U); // not a vacuous comparison
+    EXPECT_EQ(touching, broadphase_pairs(lattice, radii));
+}
+
+TEST(SphereGrid, SameOrderWithAPoolOfThreads)
+{
+    std::mt19937_64 rng(5);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<vec3> x;
+    std::vector<double> r;
+    for (int i = 0; i < 20000; ++i) {
+        x.push_back(7.0 * vec3(unit(rng), unit(rng), unit(rng)));
+        r.push_back(0.05 + 0.05 * unit(rng));
+    }
+    thread_pool pool(2);
+    sphere_grid alone, shared;
+    std::vector<double> const inverse_mass(x.size(), 1.0);
+    ASSERT_TRUE(alone.build(x, r, inverse_mass, nullptr));
+    ASSERT_TRUE(shared.build(x, r, inverse_mass, &pool));
+    ASSERT_GT(alone.slab_count(), 2U);
+    ASSERT_EQ(alone.slab_count(), shared.slab_count());
+    for (std::uint32_t k = 0; k < x.size(); ++k)
+        ASSERT_EQ(alone.slot(k), shared.slot(k));
+    std::vector<sphere_pair> a, b, a_touching, b_touching;
+    for (std::size_t s = 0; s < alone.slab_count(); ++s) {
+        alone.near_pairs(s, a, a_touching);
+        shared.near_pairs(s, b, b_touching);
+        EXPECT_TRUE(a == b);
+        EXPECT_TRUE(a_touching == b_touching);
+    }
+}
+
+// The grid declines what it cannot hold, and the discrete step then falls back to the
+// broadphases in slot order: no sphere, or coordinates so far out that cells finer than the
+// coordinates resolve would be needed. A sparse scene (one sphere flung far off) it holds,
+// searching its sorted keys instead of keeping a table of every cell.
+TEST(SphereGrid, DeclinesOnlyScenesItCannotHold)
+{
+    sphere_grid grid;
+    std::vector<vec3> x = {vec3::Zero(), vec3(0.1, 0, 0), vec3(1, 0, 0)};
+    std::vector<double> r = {0.0, 0.0, 0.0};
+    std::vector<double> const inverse_mass = {1.0, 1.0, 1.0};
+    EXPECT_FALSE(grid.build(x, r, inverse_mass, nullptr));
+    r = {0.1, 0.1, 0.1};
+    EXPECT_TRUE(grid.build(x, r, inverse_mass, nullptr));
+    x[2] = vec3(1e5, -1e5, 3e4);
+    EXPECT_EQ(sphere_grid_pairs(x, r), broadphase_pairs(x, r));
+    x[2] = vec3(1e300, 0, 0);
+    EXPECT_FALSE(grid.build(x, r, inverse_mass, nullptr));
+}
+
+TEST(SphereGrid, SparseScenesFindTheBroadphasesPairs)
+{
+    std::mt19937_64 rng(23);
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    std::vector<vec3> x;
+    std::vector<double> r;
+    for (int cluster = 0; cluster < 6; ++cluster) {
+        vec3 const centre = 1000.0 * vec3(unit(rng), unit(rng), unit(rng));
+        for (int i = 0; i < 300; ++i) {
+            x.push_back(centre + vec3(unit(rng), unit(rng), unit(rng)));
+            r.push_back(0.02 + 0.08 * unit(rng));
+        }
+    }
+    auto const pairs = sphere_grid_pairs(x, r);
+    EXPECT_EQ(pairs, broadphase_pairs(x, r));
+    EXPECT_GT(pairs.size(), 300U);
+}
+
+TEST(ThreadPool, RunsEachIterationOnceAndRethrows)
+{
+    for (std::size_t threads : {1, 2, 3}) {
+        thread_pool pool(threads);
+        std::vector<int> runs(1000, 0);
+        for (int round = 0; round < 20; ++round)
+            pool.run(runs.size(), [&](std::size_t k) { ++runs[k]; });
+        EXPECT_TRUE(std::ranges::all_of(runs, [](int n) { return n == 20; }));
+        EXPECT_THROW(pool.run(100, [](std::size_t k) { if (k == 42) throw std::runtime_error("42"); }),
+                     std::runtime_error);
+        pool.run(3, [&](std::size_t k) { runs[k] = 0; }); // still usable after a throw
+        EXPECT_EQ(runs[0] + runs[1] + runs[2], 0);
+    }
+    EXPECT_THROW(thread_pool(0), std::invalid_argument);
 }
 
 } // namespace

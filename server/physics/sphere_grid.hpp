@@ -1,0 +1,114 @@
+#pragma once
+
+#include "parallel_for.hpp"
+#include "vec.hpp"
+
+#include <cstddef>
+#include <cstdint>
+#include <span>
+#include <compare>
+#include <vector>
+
+namespace kugel::physics {
+
+/// Two spheres by their positions in a sphere_grid's cell order; a is the one in the lower
+/// body slot (which side is which matters when two centres coincide).
+struct sphere_pair
+{
+    std::uint32_t a;
+    std::uint32_t b;
+
+    friend bool operator==(sphere_pair const&, sphere_pair const&) = default;
+};
+
+/// A sphere as the discrete step's pair passes see it.
+struct packed_sphere
+{
+    vec3 x;              ///< m
+    double radius;       ///< m, > 0
+    double inverse_mass; ///< 1/kg, 0 for a static sphere
+};
+
+/// The spheres of one step filed by their centres into cubic cells as wide as the largest
+/// diameter, so that two spheres whose boxes overlap sit in the same cell or in neighbouring
+/// ones: the discrete step's broadphase when the scene asks for the grid, and the order in
+/// which the discrete step resolves contacts whichever broadphase found them.
+///
+/// Cell order sorts the spheres by cell (x, then y, then z) and then by body slot, so it is a
+/// function of the positions and radii alone: the same state gives the same order, however
+/// the world got there (a world restored from a checkpoint goes on like the original).
+/// The grid keeps each sphere's position, radius and inverse mass in that order, carried
+/// along while sorting, so that the pair passes read memory nearly in sequence and no
+/// sphere is fetched from a scattered body slot.
+///
+/// Spheres are named by their position in cell order, their rank; slot() gives the body.
+/// Slabs are runs of whole x-cells. A pair belongs to the slab of its first sphere in cell
+/// order, and its second sphere is in that slab or the next, so the pairs of the even slabs
+/// share no sphere with each other, nor do those of the odd ones: each half can be worked on
+/// slab by slab at the same time, and the outcome is that of one fixed order.
+class sphere_grid
+{
+public:
+    /// Files the spheres (radius > 0) at x. False, with nothing filed, when the grid cannot
+    /// hold them: no sphere, coordinates more than 2^47 cells from the origin (e.g. 10^13 m
+    /// with 0.1 m spheres), or a scene spanning more cells than a 64-bit key can number.
+    /// Positions and radii must be finite.
+    bool build(std::span<vec3 const> x, std::span<double const> radius,
+               std::span<double const> inverse_mass, parallel_for* loops);
+
+    /// When build() declines: files every sphere in one slab, in slot order, for a caller that
+    /// finds the pairs elsewhere (near_pairs() is not available then).
+    void file_in_slot_order(std::span<vec3 const> x, std::span<double const> radius,
+                            std::span<double const> inverse_mass);
+
+    std::size_t slab_count() const { return slab_begin_.size() - 1; }
+    /// The first position in cell order of slab s; slab_begin(slab_count()) is the end.
+    std::uint32_t slab_begin(std::size_t s) const { return slab_begin_[s]; }
+    /// Which slab the sphere at this position of cell order is in.
+    std::size_t slab_of(std::uint32_t rank) const;
+    /// The body slot of the sphere at this position of cell order.
+    std::uint32_t slot(std::uint32_t rank) const { return filed_[rank].slot; }
+    /// The sphere at this position of cell order, as given to build(); the caller may move it.
+    packed_sphere& sphere(std::uint32_t rank) { return filed_[rank].sphere; }
+    packed_sphere const& sphere(std::uint32_t rank) const { return filed_[rank].sphere; }
+    /// Fills `out` with the position in cell order of the sphere in each body slot (of n; the
+    /// entries of bodies that are not spheres are left as they were).
+    void ranks(std::size_t n, std::vector<std::uint32_t>& out) const;
+
+    /// Clears `near` and fills it with every pair of slab s whose boxes [x − r, x + r] overlap
+    /// (the broadphases' rule, at the positions given to build()), as positions in cell order,
+    /// a the sphere with the lower body slot, sorted by the cell order of their first, then
+    /// their second sphere; `touching` gets those of them whose spheres touch
+    /// (|x_a − x_b| <= r_a + r_b), in the same order.
+    void near_pairs(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
+
+private:
+    /// A sphere and its cell.
+    struct filed_sphere
+    {
+        std::uint64_t cell; ///< key of its cell: (x · cells_y + y) · cells_z + z
+        std::uint32_t slot; ///< body slot
+        packed_sphere sphere;
+    };
+
+    template <class First>
+    void near_pairs(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching,
+                    First const& first_at_or_after) const;
+
+    std::uint64_t stride_y_ = 0; ///< key step to the next y-cell (= cells in z, padded)
+    std::uint64_t stride_x_ = 0; ///< key step to the next x-cell
+    /// A table of every cell's start, when there are few cells per sphere; else the starts
+    /// are searched for in the sorted keys (a sparse scene).
+    bool dense_ = false;
+    std::vector<filed_sphere> filed_;          ///< in cell order
+    std::vector<filed_sphere> by_slab_;        ///< by slab, in slot order within each
+    std::vector<std::uint64_t> keys_;          ///< cell key by body slot (spheres only)
+    std::vector<std::uint32_t> slabs_;         ///< slab by body slot (spheres only)
+    std::vector<std::uint32_t> slab_of_x_;     ///< dense: slab of each x-cell
+    std::vector<std::uint32_t> chunk_slab_start_; ///< per chunk of bodies and slab: first entry
+    std::vector<std::uint32_t> cell_begin_;    ///< dense: cell-order start of each cell, and the end
+    std::vector<std::uint64_t> slab_cell_;     ///< first cell key of each slab, and the end
+    std::vector<std::uint32_t> slab_begin_;    ///< cell-order start of each slab, and the end
+};
+
+} // namespace kugel::physics
