@@ -218,26 +218,26 @@ void room::join(std::shared_ptr<websocket_session> session)
 {
     // The room's handlers hold sessions weakly (server.cpp: its context outlives theirs).
     net::post(strand_, [self = shared_from_this(), weak = std::weak_ptr(session)] {
-        auto const session = weak.lock();
-        if (!session)
+        auto const joining = weak.lock();
+        if (!joining)
             return;
         // Counted before the welcome goes out, so a client that has its welcome is counted.
-        self->sessions_.push_back({session->client_id(), session});
+        self->sessions_.push_back({joining->client_id(), joining});
         self->counters_.sessions = self->sessions_.size();
-        session->send_reply(self->welcome_for(self->sessions_.back()));
+        joining->send_reply(self->welcome_for(self->sessions_.back()));
     });
 }
 
 void room::grant_admin(std::shared_ptr<websocket_session> session)
 {
     net::post(strand_, [self = shared_from_this(), weak = std::weak_ptr(session)] {
-        auto const session = weak.lock();
-        if (!session)
+        auto const admin = weak.lock();
+        if (!admin)
             return;
         for (member& m : self->sessions_)
-            if (m.client_id == session->client_id()) {
+            if (m.client_id == admin->client_id()) {
                 m.admin = true;
-                session->send_notice(self->welcome_for(m));
+                admin->send_notice(self->welcome_for(m));
             }
     });
 }
