@@ -216,28 +216,21 @@ void room::stop()
 
 void room::join(std::shared_ptr<websocket_session> session)
 {
-    // The room's handlers hold sessions weakly (server.cpp: its context outlives theirs).
-    net::post(strand_, [self = shared_from_this(), weak = std::weak_ptr(session)] {
-        auto const joining = weak.lock();
-        if (!joining)
-            return;
+    net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
         // Counted before the welcome goes out, so a client that has its welcome is counted.
-        self->sessions_.push_back({joining->client_id(), joining});
+        self->sessions_.push_back({session->client_id(), session});
         self->counters_.sessions = self->sessions_.size();
-        joining->send_reply(self->welcome_for(self->sessions_.back()));
+        session->send_reply(self->welcome_for(self->sessions_.back()));
     });
 }
 
 void room::grant_admin(std::shared_ptr<websocket_session> session)
 {
-    net::post(strand_, [self = shared_from_this(), weak = std::weak_ptr(session)] {
-        auto const admin = weak.lock();
-        if (!admin)
-            return;
+    net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
         for (member& m : self->sessions_)
-            if (m.client_id == admin->client_id()) {
+            if (m.client_id == session->client_id()) {
                 m.admin = true;
-                admin->send_notice(self->welcome_for(m));
+                session->send_notice(self->welcome_for(m));
             }
     });
 }
@@ -255,16 +248,13 @@ std::shared_ptr<std::string const> room::welcome_for(member const& m) const
 void room::submit(std::shared_ptr<websocket_session> from, protocol::client_message message,
                   bool admin)
 {
-    net::post(strand_, [self = shared_from_this(), weak = std::weak_ptr(from),
+    net::post(strand_, [self = shared_from_this(), from = std::move(from),
                         message = std::move(message), admin]() mutable {
-        auto const sender = weak.lock();
-        if (!sender)
-            return; // the client left: nobody would hear the answer
         if (auto const* ping = std::get_if<protocol::ping>(&message)) {
-            sender->send_reply(share(protocol::encode(protocol::pong{ping->ref, self->counters_.ticks})));
+            from->send_reply(share(protocol::encode(protocol::pong{ping->ref, self->counters_.ticks})));
             return;
         }
-        self->pending_commands_.push_back({std::move(weak), std::move(message), admin});
+        self->pending_commands_.push_back({from, std::move(message), admin});
     });
 }
 

@@ -29,14 +29,16 @@ struct server::state
     /// One context and thread per room, for its strand alone: a tick never waits behind the
     /// sessions' handlers (a snapshot's fan-out to 1,000 clients is 1,000 writes). Declared
     /// before `io`, so destroyed after it: a session left in io's queue may hold the last
-    /// reference to a room, whose timers need their context. The rooms' handlers hold
-    /// sessions only weakly, so the other way round never happens.
+    /// reference to a room, whose timers need their context. The other way round, a room's
+    /// handler holding a session, cannot happen: wait() runs the rooms' contexts until their
+    /// queues are empty, after io's threads have ended.
     std::vector<std::unique_ptr<net::io_context>> room_contexts;
     net::io_context io; ///< the sessions, the listener, checkpoint writes
     std::map<std::string, std::shared_ptr<room>, std::less<>> rooms;
     std::vector<net::executor_work_guard<net::io_context::executor_type>> room_work;
     std::shared_ptr<listener> acceptor;
-    std::vector<std::thread> threads;
+    std::vector<std::thread> threads;      ///< io's
+    std::vector<std::thread> room_threads; ///< one per room context
     std::size_t thread_count;
     std::optional<net::signal_set> signals;
     std::optional<net::steady_timer> grace; ///< ends what is left after a stop
@@ -216,7 +218,7 @@ void server::start()
     for (std::size_t i = 0; i < state_->thread_count; ++i)
         state_->threads.emplace_back([s = state_.get()] { s->io.run(); });
     for (auto& ticks : state_->room_contexts)
-        state_->threads.emplace_back([&ticks = *ticks] { ticks.run(); });
+        state_->room_threads.emplace_back([&ticks = *ticks] { ticks.run(); });
 }
 
 void server::stop_on_signals()
@@ -244,12 +246,7 @@ void server::stop()
         // Sessions get a moment to finish their close handshakes; idle HTTP keep-alive
         // connections and clients that never answer are then cut off.
         s->grace.emplace(s->io, s->shutdown_grace);
-        s->grace->async_wait([s](beast::error_code) {
-            s->io.stop();
-            s->room_work.clear();
-            for (auto& ticks : s->room_contexts)
-                ticks->stop();
-        });
+        s->grace->async_wait([s](beast::error_code) { s->io.stop(); });
     });
 }
 
@@ -259,6 +256,13 @@ void server::wait()
         if (t.joinable())
             t.join();
     state_->threads.clear();
+    // Nothing posts to the rooms once the sessions' threads have ended; the rooms stopped
+    // (their timers are cancelled), so each room's context ends when its queue is empty.
+    state_->room_work.clear();
+    for (std::thread& t : state_->room_threads)
+        if (t.joinable())
+            t.join();
+    state_->room_threads.clear();
     // The last checkpoint, after every thread ended (the rooms' too): nothing else touches the rooms now,
     // and the joins order their last ticks before this.
     if (state_->stopping && !state_->final_checkpoints_written) {
