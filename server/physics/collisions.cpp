@@ -59,8 +59,12 @@ public:
     /// the common case, tested without a branch per wall.
     bool clear(vec3 const& x, double r) const
     {
-        bool clear = (x.x() >= below_.x() + r) & (x.y() >= below_.y() + r) & (x.z() >= below_.z() + r) &
-                     (-x.x() >= above_.x() + r) & (-x.y() >= above_.y() + r) & (-x.z() >= above_.z() + r);
+        bool clear = x.x() >= below_.x() + r; // &=, not &&: no branch per wall
+        clear &= x.y() >= below_.y() + r;
+        clear &= x.z() >= below_.z() + r;
+        clear &= -x.x() >= above_.x() + r;
+        clear &= -x.y() >= above_.y() + r;
+        clear &= -x.z() >= above_.z() + r;
         for (wall const& w : oblique_)
             clear &= w.surface.normal.dot(x) >= w.surface.offset + r;
         return clear;
@@ -70,9 +74,12 @@ public:
     /// for all).
     bool beyond(vec3 const& x, double reach) const
     {
-        bool beyond = (x.x() > below_.x() + reach) & (x.y() > below_.y() + reach) &
-                      (x.z() > below_.z() + reach) & (-x.x() > above_.x() + reach) &
-                      (-x.y() > above_.y() + reach) & (-x.z() > above_.z() + reach);
+        bool beyond = x.x() > below_.x() + reach;
+        beyond &= x.y() > below_.y() + reach;
+        beyond &= x.z() > below_.z() + reach;
+        beyond &= -x.x() > above_.x() + reach;
+        beyond &= -x.y() > above_.y() + reach;
+        beyond &= -x.z() > above_.z() + reach;
         for (wall const& w : oblique_)
             beyond &= w.surface.normal.dot(x) > w.surface.offset + reach;
         return beyond;

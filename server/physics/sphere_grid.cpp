@@ -269,9 +269,12 @@ void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
                 packed_sphere const& b = filed_[q].sphere;
                 // overlaps() from aabb.hpp on [x − r, x + r]: max(lo) <= min(hi) is lo_a <= hi_b
                 // and lo_b <= hi_a (as lo <= hi), tested without a branch per axis
-                bool const meet = (a_lo.x() <= b.x.x() + b.radius) & (b.x.x() - b.radius <= a_hi.x()) &
-                                  (a_lo.y() <= b.x.y() + b.radius) & (b.x.y() - b.radius <= a_hi.y()) &
-                                  (a_lo.z() <= b.x.z() + b.radius) & (b.x.z() - b.radius <= a_hi.z());
+                bool meet = a_lo.x() <= b.x.x() + b.radius;
+                meet &= b.x.x() - b.radius <= a_hi.x();
+                meet &= a_lo.y() <= b.x.y() + b.radius;
+                meet &= b.x.y() - b.radius <= a_hi.y();
+                meet &= a_lo.z() <= b.x.z() + b.radius;
+                meet &= b.x.z() - b.radius <= a_hi.z();
                 if (!meet)
                     continue;
                 sphere_pair const pair = filed_[p].slot < filed_[q].slot ? sphere_pair{p, q} : sphere_pair{q, p};

@@ -409,7 +409,7 @@ TEST(SphereGrid, FindsTheBroadphasesPairs)
 {
     std::mt19937_64 rng(11);
     std::uniform_real_distribution<double> unit(0.0, 1.0);
-    for (std::size_t count : {1, 2, 10, 300, 3000}) {
+    for (std::size_t const count : std::initializer_list<std::size_t>{1, 2, 10, 300, 3000}) {
         for (vec3 const& offset : {vec3(0, 0, 0), vec3(-3, -1, -2), vec3(1e6, -1e6, 5e5)}) {
             SCOPED_TRACE("count " + std::to_string(count));
             double const side = 0.5 * std::cbrt(static_cast<double>(count) + 1.0);
@@ -510,7 +510,7 @@ TEST(SphereGrid, SparseScenesFindTheBroadphasesPairs)
 
 TEST(ThreadPool, RunsEachIterationOnceAndRethrows)
 {
-    for (std::size_t threads : {1, 2, 3}) {
+    for (std::size_t const threads : std::initializer_list<std::size_t>{1, 2, 3}) {
         thread_pool pool(threads);
         std::vector<int> runs(1000, 0);
         for (int round = 0; round < 20; ++round)

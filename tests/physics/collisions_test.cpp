@@ -428,7 +428,7 @@ TEST(DiscreteThreads, AnyNumberOfThreadsGivesTheSameBits)
         return state_hash(w);
     };
     std::uint64_t const gas = gas_after_steps(nullptr, broadphase_kind::uniform_grid);
-    for (std::size_t threads : {1, 2, 3}) {
+    for (std::size_t const threads : std::initializer_list<std::size_t>{1, 2, 3}) {
         thread_pool pool(threads);
         EXPECT_EQ(state_hash(settled_pile(collision_mode::discrete, broadphase_kind::uniform_grid, &pool)), pile)
             << threads << " threads";
