@@ -45,16 +45,22 @@ world gas(collision_mode mode, std::int64_t n)
     return w;
 }
 
-void gas_step(benchmark::State& state, collision_mode mode)
+/// Times steps of `w` (a gas of `bodies` spheres), after one untimed step.
+void time_gas_steps(benchmark::State& state, world& w, std::int64_t bodies)
 {
-    world w = gas(mode, state.range(0));
     w.step(1.0 / 60.0);
     auto const contacts_before = w.collisions().contacts();
     for (auto _ : state)
         w.step(1.0 / 60.0);
-    state.SetItemsProcessed(state.iterations() * state.range(0));
+    state.SetItemsProcessed(state.iterations() * bodies);
     state.counters["contacts_per_step"] = benchmark::Counter(
         static_cast<double>(w.collisions().contacts() - contacts_before) / static_cast<double>(state.iterations()));
+}
+
+void gas_step(benchmark::State& state, collision_mode mode)
+{
+    world w = gas(mode, state.range(0));
+    time_gas_steps(state, w, state.range(0));
 }
 
 // The same step with the world lent a pool of T threads (arguments T, N); wall time, since
@@ -64,13 +70,7 @@ void gas_step_threads(benchmark::State& state, collision_mode mode)
     kugel::physics::thread_pool pool(static_cast<std::size_t>(state.range(0)));
     world w = gas(mode, state.range(1));
     w.set_parallel_for(&pool);
-    w.step(1.0 / 60.0);
-    auto const contacts_before = w.collisions().contacts();
-    for (auto _ : state)
-        w.step(1.0 / 60.0);
-    state.SetItemsProcessed(state.iterations() * state.range(1));
-    state.counters["contacts_per_step"] = benchmark::Counter(
-        static_cast<double>(w.collisions().contacts() - contacts_before) / static_cast<double>(state.iterations()));
+    time_gas_steps(state, w, state.range(1));
 }
 
 BENCHMARK_CAPTURE(gas_step, discrete, collision_mode::discrete)

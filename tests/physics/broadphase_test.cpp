@@ -443,16 +443,27 @@ TEST(SphereGrid, FindsTheBroadphasesPairs)
     EXPECT_EQ(touching, broadphase_pairs(lattice, radii));
 }
 
+/// Appends `count` spheres with centres uniform in the cube [corner, corner + side]³ and radii
+/// uniform in [r_min, r_max]. One draw per statement, so every compiler draws the same scene.
+void add_random_spheres(std::mt19937_64& rng, std::size_t count, vec3 const& corner, double side,
+                        double r_min, double r_max, std::vector<vec3>& x, std::vector<double>& r)
+{
+    std::uniform_real_distribution<double> unit(0.0, 1.0);
+    for (std::size_t i = 0; i < count; ++i) {
+        double const cx = unit(rng);
+        double const cy = unit(rng);
+        double const cz = unit(rng);
+        x.push_back(corner + side * vec3(cx, cy, cz));
+        r.push_back(r_min + (r_max - r_min) * unit(rng));
+    }
+}
+
 TEST(SphereGrid, SameOrderWithAPoolOfThreads)
 {
     std::mt19937_64 rng(5);
-    std::uniform_real_distribution<double> unit(0.0, 1.0);
     std::vector<vec3> x;
     std::vector<double> r;
-    for (int i = 0; i < 20000; ++i) {
-        x.push_back(7.0 * vec3(unit(rng), unit(rng), unit(rng)));
-        r.push_back(0.05 + 0.05 * unit(rng));
-    }
+    add_random_spheres(rng, 20000, vec3::Zero(), 7.0, 0.05, 0.1, x, r);
     thread_pool pool(2);
     sphere_grid alone, shared;
     std::vector<double> const inverse_mass(x.size(), 1.0);
@@ -497,11 +508,10 @@ TEST(SphereGrid, SparseScenesFindTheBroadphasesPairs)
     std::vector<vec3> x;
     std::vector<double> r;
     for (int cluster = 0; cluster < 6; ++cluster) {
-        vec3 const centre = 1000.0 * vec3(unit(rng), unit(rng), unit(rng));
-        for (int i = 0; i < 300; ++i) {
-            x.push_back(centre + vec3(unit(rng), unit(rng), unit(rng)));
-            r.push_back(0.02 + 0.08 * unit(rng));
-        }
+        double const cx = unit(rng);
+        double const cy = unit(rng);
+        double const cz = unit(rng);
+        add_random_spheres(rng, 300, 1000.0 * vec3(cx, cy, cz), 1.0, 0.02, 0.1, x, r);
     }
     auto const pairs = sphere_grid_pairs(x, r);
     EXPECT_EQ(pairs, broadphase_pairs(x, r));
