@@ -2,9 +2,11 @@
 
 #include "physics/barnes_hut.hpp"
 #include "physics/diagnostics.hpp"
+#include "physics/thread_pool.hpp"
 
 #include <chrono>
 #include <cmath>
+#include <memory>
 #include <optional>
 #include <stdexcept>
 
@@ -51,9 +53,17 @@ nlohmann::ordered_json force_methods(scene::scene const& s, physics::world const
 
 } // namespace
 
-nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps)
+nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
+                                    std::size_t physics_threads)
 {
+    if (physics_threads < 1)
+        throw std::invalid_argument("physics_threads must be at least 1");
+    // Declared before the world it is lent to, so that it outlives it.
+    std::unique_ptr<physics::thread_pool> pool;
+    if (physics_threads > 1)
+        pool = std::make_unique<physics::thread_pool>(physics_threads);
     physics::world world = scene::build_world(s);
+    world.set_parallel_for(pool.get());
     auto const initial = physics::measure(world);
     auto const& integrator = physics::info(s.integrator);
 
@@ -63,6 +73,7 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps)
     summary["steps"] = steps;
     summary["dt"] = s.dt;
     summary["substeps"] = s.substeps;
+    summary["physics_threads"] = physics_threads;
     summary["integrator"] = integrator.name;
     summary["integrator_order"] = integrator.order;
     summary["integrator_exact"] =

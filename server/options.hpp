@@ -41,6 +41,8 @@ struct server_options
     std::vector<room_spec> rooms;   ///< empty: one room "default" with the built-in scene
     std::size_t max_bodies = 20'000; ///< per room; a spawn beyond it: error room_full
     std::size_t threads = 0;         ///< 0: one per core
+    /// Threads that step each room's world, its tick thread counted (room::settings).
+    std::size_t physics_threads = 1;
     /// After a stop, how long closing handshakes may take before the rest is cut off.
     std::chrono::milliseconds shutdown_grace{1000};
     client_limits client;

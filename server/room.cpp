@@ -77,10 +77,14 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
           std::chrono::duration<double>(1.0 / settings_.tick_rate))),
       checkpoint_timer_(strand_), scene_name_(s.name),
       scene_fingerprint_(std::move(scene_fingerprint)), scene_(s),
+      physics_threads_(settings_.physics_threads > 1
+                           ? std::make_unique<physics::thread_pool>(settings_.physics_threads)
+                           : nullptr),
       world_(restored ? restored_world(s, *restored, checkpoint_path(settings_.state_dir, name_).string())
                       : scene::build_world(s)),
       dt_(s.dt), send_charges_(s.forces.coulomb.has_value())
 {
+    world_.set_parallel_for(physics_threads_.get());
     welcome_ = make_welcome(name_, s, world_, settings_);
     auto const ids = world_.bodies().ids();
     for (std::size_t slot = 0; slot < ids.size(); ++slot) {
@@ -476,6 +480,7 @@ void room::replace_world(scene::scene s)
     protocol::welcome welcome = make_welcome(name_, s, fresh, settings_);
 
     world_ = std::move(fresh);
+    world_.set_parallel_for(physics_threads_.get());
     welcome_ = std::move(welcome);
     dt_ = s.dt;
     send_charges_ = s.forces.coulomb.has_value();

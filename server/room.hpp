@@ -5,6 +5,7 @@
 #include "network.hpp"
 #include "options.hpp"
 
+#include "physics/thread_pool.hpp"
 #include "physics/world.hpp"
 #include "protocol/messages.hpp"
 #include "scene/scene.hpp"
@@ -51,6 +52,10 @@ public:
         /// Where checkpoints go (DIR/ROOM.json); empty: none are taken.
         std::filesystem::path state_dir;
         std::chrono::milliseconds checkpoint_interval{5000};
+        /// Threads that step the world, the room's own tick thread counted: more than one
+        /// lends the world a thread_pool for its discrete-collision and drift loops. The
+        /// result is the same bit for bit; only the time a step takes changes.
+        std::size_t physics_threads = 1;
     };
 
     /// Builds the scene's world, or (given a checkpoint of this scene) the checkpoint's
@@ -155,6 +160,9 @@ private:
     std::atomic<bool> checkpoint_writing_{false}; ///< a periodic write is under way off the strand
 
     scene::scene scene_;               ///< the scene as loaded: what reset goes back to
+    /// Lent to world_ (and to each world that replaces it) when physics_threads > 1; declared
+    /// first, so that it outlives the world it is lent to.
+    std::unique_ptr<physics::thread_pool> physics_threads_;
     physics::world world_;
     double dt_;                        ///< s per tick
     bool paused_ = false;              ///< an admin paused the room: ticks go on, no steps

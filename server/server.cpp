@@ -62,6 +62,8 @@ void check(server_options const& o)
                                         "' must be non-empty, without / ? # % or spaces");
     if (!o.state_dir.empty() && o.checkpoint_interval <= std::chrono::milliseconds::zero())
         throw std::invalid_argument("--checkpoint-interval must be > 0");
+    if (o.physics_threads < 1 || o.physics_threads > 256)
+        throw std::invalid_argument("--physics-threads must be in [1, 256]");
 }
 
 } // namespace
@@ -119,7 +121,8 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
 {
     state_->shutdown_grace = options.shutdown_grace;
     room::settings const config{options.tick_rate, options.snapshot_rate, options.max_bodies,
-                                options.client, options.state_dir, options.checkpoint_interval};
+                                options.client, options.state_dir, options.checkpoint_interval,
+                                options.physics_threads};
     if (!options.state_dir.empty()) {
         std::error_code ec;
         std::filesystem::create_directories(options.state_dir, ec);

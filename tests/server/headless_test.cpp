@@ -4,6 +4,7 @@
 #include <nlohmann/json.hpp>
 
 #include <array>
+#include <cstdint>
 #include <cstdio>
 #include <filesystem>
 #include <memory>
@@ -120,6 +121,33 @@ TEST(HeadlessRun, SingularForceStopsTheRunAndIsReported)
     EXPECT_NE(summary["error"].get<std::string>().find("softening"), std::string::npos);
     EXPECT_EQ(summary["steps_completed"], 4);
     EXPECT_EQ(summary["time"], 0.5);
+}
+
+// The gas scene with discrete collisions, 10,000 spheres: three chunks of bodies, so a
+// pool of three threads really splits the work. Threads change only how long a step takes:
+// every figure of the summary but the wall times is the same, bit for bit (exact equality
+// of doubles is the right tolerance; the engine promises it, DiscreteThreads.*).
+TEST(HeadlessRun, PhysicsThreadsChangeNothingButTheTime)
+{
+    std::vector<std::string> const discrete{"collisions.mode=discrete"};
+    auto const s = scene::load_scene(scene("gas.json"), discrete);
+    auto one = run_headless(s, 20, 1);
+    auto three = run_headless(s, 20, 3);
+    EXPECT_EQ(one["physics_threads"], 1);
+    EXPECT_EQ(three["physics_threads"], 3);
+    EXPECT_GT(one["sphere_collisions"].get<std::uint64_t>(), 0u);
+    for (char const* key : {"wall_ms", "wall_ms_per_step", "physics_threads"}) {
+        one.erase(key);
+        three.erase(key);
+    }
+    EXPECT_EQ(one, three) << one.dump() << "\n" << three.dump();
+}
+
+TEST(HeadlessCommand, PhysicsThreadsOutOfRangeIsRefused)
+{
+    auto const r = run_server("--scene " + scene("kepler.json") + " --headless --physics-threads 0");
+    EXPECT_NE(r.exit_code, 0);
+    EXPECT_TRUE(r.out.empty());
 }
 
 // The galaxy scene, shrunk to 1,000 bodies: the tree method is reported, and over 50 steps

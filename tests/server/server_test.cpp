@@ -164,6 +164,39 @@ TEST(DefaultScene, NeverSettlesAndKeepsItsEnergy)
               0.2 * summary.at("energy_initial").get<double>());
 }
 
+// Two servers host the same discrete gas of 5,000 spheres (two chunks of bodies, so the
+// pool's second thread gets work), one stepping it on the room's thread alone, one with
+// --physics-threads 3. At the same tick their snapshots are the same, to the last bit: the
+// threads change when a step ends, never what it computes. At 10 ticks a second every
+// snapshot reaches the client, so both find a tick in common.
+TEST(Server, PhysicsThreadsStepTheRoomToTheSameWorld)
+{
+    json gas = json::parse(std::ifstream(fs::path(KUGEL_SOURCE_DIR) / "scenes" / "gas.json"));
+    gas["generators"][0]["count"] = 5000;
+    gas["collisions"]["mode"] = "discrete";
+    auto const serve = [&](std::size_t physics_threads) {
+        server_options o = rooms({{"gas", gas}});
+        o.tick_rate = 10.0;
+        o.snapshot_rate = 10.0;
+        o.physics_threads = physics_threads;
+        return std::make_unique<running_server>(o);
+    };
+    auto const alone = serve(1);
+    auto const pooled = serve(3);
+    client a(alone->port(), "/ws/gas");
+    client b(pooled->port(), "/ws/gas");
+    json sa = a.snapshot_at_or_after(5);
+    json sb = b.snapshot_at_or_after(sa.at("tick").get<std::uint64_t>());
+    while (sa.at("tick") != sb.at("tick")) {
+        if (sa.at("tick") < sb.at("tick"))
+            sa = a.snapshot_at_or_after(sb.at("tick").get<std::uint64_t>());
+        else
+            sb = b.snapshot_at_or_after(sa.at("tick").get<std::uint64_t>());
+    }
+    ASSERT_EQ(sa.at("bodies").at("id").size(), 5000U);
+    EXPECT_TRUE(sa.at("bodies") == sb.at("bodies")) << "tick " << sa.at("tick");
+}
+
 TEST(Server, SpawnIsAckedWithAnIdAndAppearsFromTheAckedTickWhereItWasPut)
 {
     running_server s(rooms({{"still", still_scene()}}));
