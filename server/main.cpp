@@ -174,6 +174,12 @@ int main(int argc, char** argv)
                    "stopped reading, is disconnected (the others never wait for it)")
         ->check(CLI::Range(0.05, 3600.0))
         ->capture_default_str();
+    app.add_option("--send-buffer", options.client.send_buffer_bytes,
+                   "Bytes the kernel may hold unsent per client (SO_SNDBUF, doubled by Linux):\n"
+                   "bounds the memory of a client that stopped reading, and how soon\n"
+                   "--write-stall notices it (0: the kernel's own tuning, up to 4 MB)")
+        ->check(CLI::Range(std::size_t{0}, std::size_t{64} << 20))
+        ->capture_default_str();
     app.add_option("--threads", options.threads,
                    "Threads for connections, HTTP and checkpoint writes (0: one per core); each\n"
                    "room ticks on a thread of its own besides")

@@ -28,6 +28,11 @@ struct client_limits
     std::size_t max_bodies_per_client = 1000;
     std::chrono::milliseconds write_stall{5000}; ///< a send pending this long: the client is
                                                  ///< not reading, and is disconnected
+    /// The kernel's send buffer per connection (SO_SNDBUF; Linux doubles it). Bounds what a
+    /// client that stopped reading holds in the kernel, and so how soon its send is pending
+    /// and write_stall can see it: with the kernel's own tuning that is up to 4 MB, minutes
+    /// of a small room's snapshots. 0: the kernel's tuning.
+    std::size_t send_buffer_bytes = 256 * 1024;
 };
 
 struct server_options

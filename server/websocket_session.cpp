@@ -75,6 +75,9 @@ websocket_session::websocket_session(tcp::socket&& socket, std::shared_ptr<room>
     // Small replies must not wait behind a snapshot for the client's delayed ACK (Nagle):
     // without this a ping's round trip alternated between 0.2 ms and 40 ms.
     beast::get_lowest_layer(ws_).socket().set_option(tcp::no_delay(true), ec);
+    if (limits_.send_buffer_bytes > 0)
+        beast::get_lowest_layer(ws_).socket().set_option(
+            net::socket_base::send_buffer_size(static_cast<int>(limits_.send_buffer_bytes)), ec);
     auto const remote = beast::get_lowest_layer(ws_).socket().remote_endpoint(ec);
     peer_ = ec ? std::string("?") : remote.address().to_string() + ":" + std::to_string(remote.port());
 }

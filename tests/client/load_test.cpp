@@ -7,9 +7,11 @@
 #include "support/in_process_server.hpp"
 #include "support/scene_files.hpp"
 
+#include <chrono>
 #include <filesystem>
 #include <gtest/gtest.h>
 #include <sstream>
+#include <string>
 
 namespace kugel::client {
 namespace {
@@ -95,27 +97,35 @@ TEST(Load, ChurnReconnectsClientsInTurnAndEveryConnectionSeesSnapshots)
     s.stop();
 }
 
-TEST(Load, AStalledClientIsDroppedWhileTheOthersCarryOn)
+/// A server with one room, "lattice": `count` resting spheres on a lattice (snapshots of
+/// about 170 bytes a body), and a 500 ms write-stall bound.
+server::server_options lattice_room(int count)
 {
-    // Large snapshots (2,000 bodies) fill the stalled client's socket within a few.
     nlohmann::json scene = test_support::still_scene();
-    scene["generators"] = nlohmann::json::array({{{"count", 2000},
+    scene["generators"] = nlohmann::json::array({{{"count", count},
                                                   {"placement", "lattice"},
                                                   {"radius", 0.05},
                                                   {"mass", 1.0},
                                                   {"max_speed", 0.0},
                                                   {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
     server::server_options o;
-    o.rooms = {{"crowded", test_support::write_scene(std::filesystem::path(testing::TempDir()) /
-                                                         "kugel_load_test_crowded.json",
+    o.rooms = {{"lattice", test_support::write_scene(std::filesystem::path(testing::TempDir()) /
+                                                         ("kugel_load_test_lattice_" +
+                                                          std::to_string(count) + ".json"),
                                                      scene)}};
     o.client.write_stall = std::chrono::milliseconds(500);
-    test_support::in_process_server s(o);
+    return o;
+}
 
+/// Runs two reading clients and one stalled client for `seconds` and checks that the
+/// stalled one was dropped while the others stayed and saw snapshots.
+void expect_stalled_client_dropped(server::server_options const& o, double seconds)
+{
+    test_support::in_process_server s(o);
     load_options options;
-    options.url = s.url("crowded");
+    options.url = s.url("lattice");
     options.clients = 2;
-    options.duration = 4.0;
+    options.duration = seconds;
     options.stalled = 1;
     load_report const report = run_load(options);
 
@@ -127,6 +137,23 @@ TEST(Load, AStalledClientIsDroppedWhileTheOthersCarryOn)
         EXPECT_GT(c.stats.snapshots, 0U) << "client " << c.number;
     EXPECT_TRUE(report_json(report)["stalled"][0]["dropped"].get<bool>());
     s.stop();
+}
+
+TEST(Load, AStalledClientIsDroppedWhileTheOthersCarryOn)
+{
+    // Large snapshots (2,000 bodies, about 340 kB) fill the stalled client's socket within a
+    // few.
+    expect_stalled_client_dropped(lattice_room(2000), 4.0);
+}
+
+TEST(Load, AStalledClientOfASmallRoomIsDroppedOnceItsSendBufferIsFull)
+{
+    // 100 bodies: snapshots of about 17 kB, 30 a second, 2 MB in the 4 s. The stalled client
+    // offers a 4 kB window, so what piles up sits in the server's send buffer. Left to the
+    // kernel's tuning that holds up to 4 MB: no send would be pending within the run, and
+    // the client would never be dropped. The server's 256 kB (512 kB as Linux counts it)
+    // fill in about a second; then the 500 ms bound drops it.
+    expect_stalled_client_dropped(lattice_room(100), 4.0);
 }
 
 TEST(Load, RefusesCountsAndTimesOutOfBounds)
