@@ -472,19 +472,22 @@ load_report run_load(load_options options)
             finish_leaving(i);
             return true;
         });
-        // The churn above may have just taken the due client out of sending (next_send at
-        // the end of time): look at it again, not at next_due.
-        if (due == clients.end() || due->next_send > now)
-            continue;
-        auto& c = *due;
-        try {
-            if (c.link && c.link->is_open())
-                c.sender->send_next();
-        } catch (connection_error const&) {
-            // Ended, or not writing: its report says so; the others go on.
+        // Every client that is due sends, not only the first: a wake-up late by many
+        // periods (a reconnect above waits for its welcome; a busy machine) would otherwise
+        // send one command where a hundred were due. The churn above may have taken a
+        // client out of sending (next_send at the end of time).
+        for (auto& c : clients) {
+            if (c.next_send > now)
+                continue;
+            try {
+                if (c.link && c.link->is_open())
+                    c.sender->send_next();
+            } catch (connection_error const&) {
+                // Ended, or not writing: its report says so; the others go on.
+            }
+            // Behind by more than a period (a slow machine)? Skip ahead rather than burst.
+            c.next_send = std::max(c.next_send + period, clock::now() - period);
         }
-        // Behind by more than a period (a slow machine)? Skip ahead rather than burst.
-        c.next_send = std::max(c.next_send + period, clock::now() - period);
     }
     auto const finished = clock::now();
     report.stopped_early = finished < end;
