@@ -48,6 +48,11 @@ struct server_options
     std::size_t threads = 0;         ///< 0: one per core
     /// Threads that step each room's world, its tick thread counted (room::settings).
     std::size_t physics_threads = 1;
+    /// Bodies from which a room's world uses them; fewer are stepped on the room's thread
+    /// alone (waking the others costs more than it saves). Default
+    /// physics::world::bodies_worth_sharing (16,384; server.cpp checks they agree).
+    static constexpr std::size_t default_physics_threads_from = 16 * 1024;
+    std::size_t physics_threads_from = default_physics_threads_from;
     /// After a stop, how long closing handshakes may take before the rest is cut off.
     std::chrono::milliseconds shutdown_grace{1000};
     client_limits client;

@@ -84,7 +84,7 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
                       : scene::build_world(s)),
       dt_(s.dt), send_charges_(s.forces.coulomb.has_value())
 {
-    world_.set_parallel_for(physics_threads_.get());
+    world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
     welcome_ = make_welcome(name_, s, world_, settings_);
     auto const ids = world_.bodies().ids();
     for (std::size_t slot = 0; slot < ids.size(); ++slot) {
@@ -480,7 +480,7 @@ void room::replace_world(scene::scene s)
     protocol::welcome welcome = make_welcome(name_, s, fresh, settings_);
 
     world_ = std::move(fresh);
-    world_.set_parallel_for(physics_threads_.get());
+    world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
     welcome_ = std::move(welcome);
     dt_ = s.dt;
     send_charges_ = s.forces.coulomb.has_value();

@@ -56,6 +56,8 @@ public:
         /// lends the world a thread_pool for its discrete-collision and drift loops. The
         /// result is the same bit for bit; only the time a step takes changes.
         std::size_t physics_threads = 1;
+        /// Bodies from which the world uses those threads (world::set_parallel_for).
+        std::size_t physics_threads_from = physics::world::bodies_worth_sharing;
     };
 
     /// Builds the scene's world, or (given a checkpoint of this scene) the checkpoint's

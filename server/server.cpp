@@ -50,6 +50,8 @@ struct server::state
 
 namespace {
 
+static_assert(server_options::default_physics_threads_from == physics::world::bodies_worth_sharing);
+
 void check(server_options const& o)
 {
     if (!(o.tick_rate > 0.0 && o.tick_rate <= 10'000.0))
@@ -122,7 +124,7 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
     state_->shutdown_grace = options.shutdown_grace;
     room::settings const config{options.tick_rate, options.snapshot_rate, options.max_bodies,
                                 options.client, options.state_dir, options.checkpoint_interval,
-                                options.physics_threads};
+                                options.physics_threads, options.physics_threads_from};
     if (!options.state_dir.empty()) {
         std::error_code ec;
         std::filesystem::create_directories(options.state_dir, ec);

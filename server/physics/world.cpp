@@ -77,7 +77,7 @@ void world::integrate(double h)
     auto v = bodies_.velocities();
     if (forces_.empty()) {
         // No force named, no force loop: every integrator reduces to the drift x += h·v.
-        run_chunks(loops_, x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+        run_chunks(loops(), x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
             for (std::size_t i = begin; i < end; ++i)
                 x[i] += h * v[i];
         });
@@ -145,7 +145,7 @@ void world::keep_step_start_and_integrate(double h)
     step_start_v_.resize(v.size());
     if (forces_.empty()) {
         // The drift, with x₀ and v₀ kept on the way: one pass over memory instead of two.
-        run_chunks(loops_, x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+        run_chunks(loops(), x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
             for (std::size_t i = begin; i < end; ++i) {
                 step_start_x_[i] = x[i];
                 step_start_v_[i] = v[i];
@@ -154,7 +154,7 @@ void world::keep_step_start_and_integrate(double h)
         });
         return;
     }
-    run_chunks(loops_, x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+    run_chunks(loops(), x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
         std::copy(x.begin() + static_cast<std::ptrdiff_t>(begin), x.begin() + static_cast<std::ptrdiff_t>(end),
                   step_start_x_.begin() + static_cast<std::ptrdiff_t>(begin));
         std::copy(v.begin() + static_cast<std::ptrdiff_t>(begin), v.begin() + static_cast<std::ptrdiff_t>(end),
@@ -178,7 +178,7 @@ void world::step(double dt)
         resolve_collisions(settings_.collisions, walls_, obstacles_,
                            {bodies_.positions(), bodies_.velocities(), step_start_x_,
                             step_start_v_, bodies_.inverse_masses(), bodies_.radii()},
-                           h, collision_workspace_, collision_stats_, loops_);
+                           h, collision_workspace_, collision_stats_, loops());
         workspace_.invalidate(); // contacts may have moved bodies
     }
     // Compensated (Kahan) sum: after 10⁶ steps of 1/60 s the clock is still exact to an ulp.

@@ -39,9 +39,20 @@ public:
     void add_force(std::unique_ptr<force_model> model);
 
     /// Lends the world a parallel_for for the loops of discrete collisions and of keeping the
-    /// step's start (nullptr: every loop on the calling thread). Not owned: it must outlive
-    /// every step() that uses it. Results are the same bits with or without it.
-    void set_parallel_for(parallel_for* loops) { loops_ = loops; }
+    /// step's start (nullptr: every loop on the calling thread), used while the world holds
+    /// at least `from_bodies` bodies: below that, waking other threads for each loop costs
+    /// more than it saves. Not owned: it must outlive every step() that uses it. Results are
+    /// the same bits with or without it.
+    void set_parallel_for(parallel_for* loops, std::size_t from_bodies = bodies_worth_sharing)
+    {
+        loops_ = loops;
+        share_from_ = from_bodies;
+    }
+
+    /// Where a lent parallel_for starts to pay: a discrete gas step on two cores (bench
+    /// gas_step_threads) took 5x as long with two threads at 1,000 spheres, as long at 10,000,
+    /// and 0.7x at 100,000.
+    static constexpr std::size_t bodies_worth_sharing = 16 * 1024;
 
     /// Static geometry that spheres collide with (when collisions are on). Throws
     /// std::invalid_argument for damping or friction outside [0, 1].
@@ -93,6 +104,9 @@ private:
     collision_stats collision_stats_;
     std::vector<vec3> step_start_x_, step_start_v_;
     parallel_for* loops_ = nullptr; ///< lent by the owner, or none
+    std::size_t share_from_ = bodies_worth_sharing; ///< loops_ is used from this many bodies
+    /// loops_ when the world holds enough bodies for it to pay, else none.
+    parallel_for* loops() const { return bodies_.size() >= share_from_ ? loops_ : nullptr; }
     double time_ = 0.0;
     double time_compensation_ = 0.0; ///< rounding lost from time_, fed back into the next sum
     std::uint64_t steps_ = 0;

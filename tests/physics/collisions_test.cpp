@@ -7,6 +7,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
+#include <optional>
 #include <random>
 
 namespace kugel::physics {
@@ -346,7 +348,7 @@ world settled_pile(collision_mode mode, broadphase_kind broadphase, parallel_for
     s.collisions.broadphase = broadphase;
     s.collisions.restitution = mode == collision_mode::discrete ? 0.5 : 1.0;
     world w(s);
-    w.set_parallel_for(loops);
+    w.set_parallel_for(loops, 0);
     if (mode == collision_mode::discrete)
         w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
     add_box(w, 1.0);
@@ -413,7 +415,7 @@ world discrete_gas(int n, broadphase_kind broadphase = broadphase_kind::uniform_
 }
 
 // The discrete step splits its loops over slabs and chunks of bodies, but a pool of threads
-// changes its speed only: the same bits with no pool and with pools of one to three threads,
+// changes its speed only (lent here from the first body on, so that small worlds use it too): the same bits with no pool and with pools of one to three threads,
 // for the pile (gravity, resting contacts) and for a gas large enough for several chunks of
 // bodies and every slab. Bit for bit, no tolerance: the order of every update is fixed.
 TEST(DiscreteThreads, AnyNumberOfThreadsGivesTheSameBits)
@@ -421,7 +423,7 @@ TEST(DiscreteThreads, AnyNumberOfThreadsGivesTheSameBits)
     std::uint64_t const pile = state_hash(settled_pile(collision_mode::discrete, broadphase_kind::uniform_grid));
     auto gas_after_steps = [](parallel_for* loops, broadphase_kind broadphase) {
         world w = discrete_gas(9000, broadphase);
-        w.set_parallel_for(loops);
+        w.set_parallel_for(loops, 0);
         for (int i = 0; i < 40; ++i)
             w.step(1.0 / 60.0);
         EXPECT_GT(w.collisions().sphere_contacts, 1000U);
@@ -438,6 +440,36 @@ TEST(DiscreteThreads, AnyNumberOfThreadsGivesTheSameBits)
     EXPECT_EQ(gas_after_steps(&pool, broadphase_kind::sweep_and_prune), gas);
 }
 
+// A lent parallel_for is used from world::bodies_worth_sharing bodies on (or from the count
+// the owner names), and below it every loop runs on the calling thread.
+TEST(DiscreteThreads, SmallWorldsKeepTheirLoopsOnTheCallingThread)
+{
+    struct counting_loops final : parallel_for
+    {
+        std::size_t runs = 0;
+        void run(std::size_t count, std::function<void(std::size_t)> const& task) override
+        {
+            ++runs;
+            for (std::size_t k = 0; k < count; ++k)
+                task(k);
+        }
+    };
+    auto runs_in_ten_steps = [](int bodies, std::optional<std::size_t> from) {
+        counting_loops loops;
+        world w = discrete_gas(bodies);
+        if (from)
+            w.set_parallel_for(&loops, *from);
+        else
+            w.set_parallel_for(&loops);
+        for (int i = 0; i < 10; ++i)
+            w.step(1.0 / 60.0);
+        return loops.runs;
+    };
+    EXPECT_EQ(runs_in_ten_steps(9000, std::nullopt), 0U);
+    EXPECT_GT(runs_in_ten_steps(9000, 9000), 0U);
+    EXPECT_GT(runs_in_ten_steps(static_cast<int>(world::bodies_worth_sharing), std::nullopt), 0U);
+}
+
 // With two threads the pile still settles (the bound of SettlesWithoutSinkingIntoItself) and
 // the gas keeps everyone in.
 TEST(DiscreteThreads, PileAndGasBehaveWithTwoThreads)
@@ -448,7 +480,7 @@ TEST(DiscreteThreads, PileAndGasBehaveWithTwoThreads)
     EXPECT_EQ(pile.escaped(), 0U);
 
     world gas = discrete_gas(9000);
-    gas.set_parallel_for(&pool);
+    gas.set_parallel_for(&pool, 0);
     for (int i = 0; i < 300; ++i)
         gas.step(1.0 / 60.0);
     EXPECT_EQ(gas.escaped(), 0U);
@@ -484,7 +516,7 @@ TEST(DiscreteThreads, FarFlungSphereStaysDeterministic)
     for (double far : {4e4, 1e14}) {
         auto run = [&](broadphase_kind broadphase, parallel_for* loops) {
             world w = discrete_gas(2000, broadphase);
-            w.set_parallel_for(loops);
+            w.set_parallel_for(loops, 0);
             w.add_body(ball({far, far, 0.0}, {1, 0, 0}, 0.05, 0.5));
             for (int i = 0; i < 30; ++i)
                 w.step(1.0 / 60.0);

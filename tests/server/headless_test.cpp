@@ -123,18 +123,24 @@ TEST(HeadlessRun, SingularForceStopsTheRunAndIsReported)
     EXPECT_EQ(summary["time"], 0.5);
 }
 
-// The gas scene with discrete collisions, 10,000 spheres: three chunks of bodies, so a
-// pool of three threads really splits the work. Threads change only how long a step takes:
+// The gas scene with discrete collisions, at the same density with 20,000 spheres: enough
+// for the world to use a lent pool (physics::world::bodies_worth_sharing), in five chunks
+// of bodies, so a pool of three threads really splits the work. Threads change only how long a step takes:
 // every figure of the summary but the wall times is the same, bit for bit (exact equality
 // of doubles is the right tolerance; the engine promises it, DiscreteThreads.*).
 TEST(HeadlessRun, PhysicsThreadsChangeNothingButTheTime)
 {
-    std::vector<std::string> const discrete{"collisions.mode=discrete"};
+    // The box of gas.json, 1.871 m a half-side for 10,000, times the cube root of 2.
+    std::vector<std::string> const discrete{
+        "collisions.mode=discrete", "generators.0.count=20000",
+        R"(box={"min": [-2.358, -2.358, -2.358], "max": [2.358, 2.358, 2.358]})",
+        R"(generators.0.region={"min": [-2.358, -2.358, -2.358], "max": [2.358, 2.358, 2.358]})"};
     auto const s = scene::load_scene(scene("gas.json"), discrete);
     auto one = run_headless(s, 20, 1);
     auto three = run_headless(s, 20, 3);
     EXPECT_EQ(one["physics_threads"], 1);
     EXPECT_EQ(three["physics_threads"], 3);
+    EXPECT_EQ(one["bodies"], 20000);
     EXPECT_GT(one["sphere_collisions"].get<std::uint64_t>(), 0u);
     for (char const* key : {"wall_ms", "wall_ms_per_step", "physics_threads"}) {
         one.erase(key);

@@ -166,7 +166,7 @@ TEST(DefaultScene, NeverSettlesAndKeepsItsEnergy)
 
 // Two servers host the same discrete gas of 5,000 spheres (two chunks of bodies, so the
 // pool's second thread gets work), one stepping it on the room's thread alone, one with
-// --physics-threads 3. At the same tick their snapshots are the same, to the last bit: the
+// three physics threads, used from the first body. At the same tick their snapshots are the same, to the last bit: the
 // threads change when a step ends, never what it computes. At 10 ticks a second every
 // snapshot reaches the client, so both find a tick in common.
 TEST(Server, PhysicsThreadsStepTheRoomToTheSameWorld)
@@ -179,6 +179,7 @@ TEST(Server, PhysicsThreadsStepTheRoomToTheSameWorld)
         o.tick_rate = 10.0;
         o.snapshot_rate = 10.0;
         o.physics_threads = physics_threads;
+        o.physics_threads_from = 0; // 5,000 bodies are too few to share by default
         return std::make_unique<running_server>(o);
     };
     auto const alone = serve(1);
