@@ -184,6 +184,11 @@ int main(int argc, char** argv)
                    "Threads for connections, HTTP and checkpoint writes (0: one per core); each\n"
                    "room ticks on a thread of its own besides")
         ->capture_default_str();
+    app.add_option("--io-niceness", options.io_niceness,
+                   "Niceness (0-19) of the --threads threads: above 0 they yield the processor\n"
+                   "to the rooms' ticks when both want it")
+        ->check(CLI::Range(0, 19))
+        ->capture_default_str();
     app.add_option("--physics-threads", options.physics_threads,
                    "Threads that step each room's world (and the --headless one), its own\n"
                    "counted: more split discrete collisions and the drift over threads. The\n"

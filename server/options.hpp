@@ -46,6 +46,9 @@ struct server_options
     std::vector<room_spec> rooms;   ///< empty: one room "default" with the built-in scene
     std::size_t max_bodies = 20'000; ///< per room; a spawn beyond it: error room_full
     std::size_t threads = 0;         ///< 0: one per core
+    /// Niceness of those threads (0–19): above 0 they yield the processor to the rooms'
+    /// ticks when both want it, so that fanning snapshots out never makes a tick late.
+    int io_niceness = 0;
     /// Threads that step each room's world, its tick thread counted (room::settings).
     std::size_t physics_threads = 1;
     /// Bodies from which a room's world uses them; fewer are stepped on the room's thread

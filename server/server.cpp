@@ -14,10 +14,15 @@
 #include <boost/asio/signal_set.hpp>
 
 #include <atomic>
+#include <cerrno>
 #include <cmath>
+#include <cstring>
 #include <fstream>
 #include <map>
 #include <sstream>
+
+#include <sys/resource.h>
+#include <unistd.h>
 #include <stdexcept>
 
 namespace kugel::server {
@@ -40,6 +45,7 @@ struct server::state
     std::vector<std::thread> threads;      ///< io's
     std::vector<std::thread> room_threads; ///< one per room context
     std::size_t thread_count;
+    int io_niceness = 0; ///< of io's threads
     std::optional<net::signal_set> signals;
     std::optional<net::steady_timer> grace; ///< ends what is left after a stop
     std::chrono::milliseconds shutdown_grace{1000};
@@ -64,6 +70,8 @@ void check(server_options const& o)
                                         "' must be non-empty, without / ? # % or spaces");
     if (!o.state_dir.empty() && o.checkpoint_interval <= std::chrono::milliseconds::zero())
         throw std::invalid_argument("--checkpoint-interval must be > 0");
+    if (o.io_niceness < 0 || o.io_niceness > 19)
+        throw std::invalid_argument("--io-niceness must be in [0, 19]");
     if (o.physics_threads < 1 || o.physics_threads > 256)
         throw std::invalid_argument("--physics-threads must be in [1, 256]");
 }
@@ -122,6 +130,7 @@ std::optional<checkpoint> restore_or_discard(server_options const& options, std:
 server::server(server_options options) : state_(std::make_unique<state>(worker_count(options)))
 {
     state_->shutdown_grace = options.shutdown_grace;
+    state_->io_niceness = options.io_niceness;
     room::settings const config{options.tick_rate, options.snapshot_rate, options.max_bodies,
                                 options.client, options.state_dir, options.checkpoint_interval,
                                 options.physics_threads, options.physics_threads_from};
@@ -221,7 +230,13 @@ void server::start()
         r->start();
     state_->acceptor->run();
     for (std::size_t i = 0; i < state_->thread_count; ++i)
-        state_->threads.emplace_back([s = state_.get()] { s->io.run(); });
+        state_->threads.emplace_back([s = state_.get(), niceness = state_->io_niceness] {
+            // Linux gives each thread its own niceness (setpriority on a thread id); raising
+            // it needs no privilege.
+            if (niceness > 0 && setpriority(PRIO_PROCESS, static_cast<id_t>(gettid()), niceness) != 0)
+                spdlog::warn("--io-niceness {}: {}", niceness, std::strerror(errno));
+            s->io.run();
+        });
     for (auto& ticks : state_->room_contexts)
         state_->room_threads.emplace_back([&ticks = *ticks] { ticks.run(); });
 }
