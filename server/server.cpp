@@ -20,10 +20,10 @@
 #include <fstream>
 #include <map>
 #include <sstream>
+#include <stdexcept>
 
 #include <sys/resource.h>
 #include <unistd.h>
-#include <stdexcept>
 
 namespace kugel::server {
 
