@@ -177,7 +177,7 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     };
 
     histogram({"kugel_tick_duration_seconds", "histogram",
-               "Wall-clock time a room's tick took: commands, physics step, snapshot encoding."},
+               "Wall-clock time a room's tick took: commands, physics step, copying a snapshot's columns (encoding runs off the tick)."},
               [](room const& r) -> tick_histogram const& { return r.tick_durations(); });
     histogram({"kugel_tick_lateness_seconds", "histogram",
                "How long after it was due a room's tick started (due: the previous tick's due time plus one period)."},
@@ -211,6 +211,9 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     per_room({"kugel_snapshots_dropped_total", "counter",
               "Snapshots replaced before they were sent, because a client read slower than they came."},
              [&](room const& r) { return load(r.traffic().snapshots_dropped); });
+    per_room({"kugel_snapshots_skipped_total", "counter",
+              "Snapshots not taken because the room's previous snapshot was still being encoded."},
+             [&](room const& r) { return load(r.counters().snapshots_skipped); });
     per_room({"kugel_stalled_clients_total", "counter",
               "Clients disconnected because a send to them was pending longer than the write-stall bound (they stopped reading)."},
              [&](room const& r) { return load(r.traffic().stalled_clients); });

@@ -30,6 +30,8 @@ struct room_counters
     std::atomic<std::uint64_t> bodies{0};
     std::atomic<std::uint64_t> sessions{0};
     std::atomic<std::uint64_t> snapshots{0};  ///< snapshots encoded and sent
+    /// Snapshots due while the last was still being encoded: not taken (room::send_snapshot)
+    std::atomic<std::uint64_t> snapshots_skipped{0};
 };
 
 /// One world and the clients watching it. Everything here runs on the room's strand: the
@@ -37,9 +39,10 @@ struct room_counters
 /// answers them and sends snapshots by posting back.
 ///
 /// One tick (DESIGN.md): apply the commands that arrived since the last tick in arrival
-/// order, step the world, send a snapshot when one is due (encoded once, the same bytes to
-/// every session), record the tick's cost. Ticks follow a steady clock at tick_rate; a room
-/// that falls more than a few ticks behind drops them instead of spiralling.
+/// order, step the world, send a snapshot when one is due (copied on the tick, encoded once
+/// off it, the same bytes to every session), record the tick's cost. Ticks follow a steady
+/// clock at tick_rate; a room that falls more than a few ticks behind drops them instead of
+/// spiralling.
 class room : public std::enable_shared_from_this<room>
 {
 public:
@@ -64,8 +67,9 @@ public:
     /// world, ids and tick. `scene_fingerprint` is written into this room's checkpoints.
     /// Throws physics::singular_force_error if it cannot start, checkpoint_error for a
     /// checkpoint body the world refuses.
-    /// `ticks` runs the room's strand (its ticks, commands and snapshots); `background` runs
-    /// what must not hold up a tick (writing a checkpoint).
+    /// `ticks` runs the room's strand (its ticks, commands and snapshots' copies);
+    /// `background` runs what must not hold up a tick (encoding snapshots, writing a
+    /// checkpoint).
     room(net::io_context& ticks, net::any_io_executor background, std::string name,
          scene::scene const& s, settings config, std::string scene_fingerprint = {},
          std::optional<checkpoint> restored = {});
@@ -129,9 +133,12 @@ private:
     std::shared_ptr<std::string const> welcome_for(member const& m) const;
     void step_world();
     bool snapshot_due();
-    std::shared_ptr<std::string const> encode_snapshot() const;
-    void broadcast(std::shared_ptr<std::string const> const& bytes);
-    void record(clock::duration cost, std::size_t snapshot_bytes);
+    /// The world now, as a snapshot's columns.
+    protocol::snapshot copy_snapshot() const;
+    /// Copies a snapshot for the sessions in the room and has it encoded and sent off the
+    /// room's strand (on `background`); none when nobody listens.
+    void send_snapshot();
+    void record(clock::duration cost);
     void schedule_next_tick();
     void schedule_next_checkpoint();
     void on_checkpoint_timer(beast::error_code ec);
@@ -160,6 +167,7 @@ private:
     bool checkpoints_suspended_logged_ = false;
     std::atomic<bool> checkpoint_failing_{false}; ///< the last write failed; logged once per streak
     std::atomic<bool> checkpoint_writing_{false}; ///< a periodic write is under way off the strand
+    std::atomic<bool> snapshot_encoding_{false};  ///< a snapshot is being encoded off the strand
 
     scene::scene scene_;               ///< the scene as loaded: what reset goes back to
     /// Lent to world_ (and to each world that replaces it) when physics_threads > 1; declared
@@ -201,7 +209,7 @@ private:
     std::uint64_t report_ticks_ = 0;
     clock::duration report_cost_{};
     clock::duration report_worst_{};
-    std::uint64_t report_bytes_ = 0;
+    std::atomic<std::uint64_t> report_bytes_{0}; ///< snapshot bytes, added by the encoder
     clock::time_point last_late_warning_{};
     bool step_failed_ = false; ///< the world cannot step (a singular force); logged once
 };

@@ -140,6 +140,27 @@ TEST(Server, WelcomeComesFirstAndDescribesTheRoom)
     EXPECT_EQ(snapshot.at("bodies").at("id").size(), 1U);
 }
 
+TEST(Server, ARoomNobodyWatchesEncodesNoSnapshotAndAWatchedOneDoes)
+{
+    // Snapshots are encoded off the tick, once per due snapshot for all the room's clients,
+    // and only when the room has any. 30 ticks without a client span 15 due snapshots.
+    running_server s(rooms({{"still", still_scene()}}));
+    auto const room = s.get().find_room("still");
+    while (s.ticks("still") < 30)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    EXPECT_EQ(room->counters().snapshots.load(), 0U);
+
+    client c(s.port(), "/ws/still");
+    ASSERT_EQ(c.read().at("type"), "welcome");
+    std::uint64_t last = 0;
+    for (int i = 0; i < 5; ++i) { // in tick order, one due snapshot apart at least
+        std::uint64_t const tick = c.next("snapshot").at("tick").get<std::uint64_t>();
+        EXPECT_GT(tick, last);
+        last = tick;
+    }
+    EXPECT_GE(room->counters().snapshots.load(), 5U);
+}
+
 TEST(Server, DefaultRoomServesTheBuiltInSceneOnWs)
 {
     running_server s(server_options{});
