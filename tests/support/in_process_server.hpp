@@ -42,6 +42,11 @@ public:
     {
         return server_.find_room(room)->counters().ticks.load();
     }
+    /// Snapshots the room skipped so far because the last one was still being encoded.
+    std::uint64_t snapshots_skipped(std::string_view room) const
+    {
+        return server_.find_room(room)->counters().snapshots_skipped.load();
+    }
 
 private:
     static server::server_options with_test_defaults(server::server_options o)
