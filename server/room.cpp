@@ -598,10 +598,12 @@ void room::send_snapshot()
     net::post(background_, [self = shared_from_this(), snapshot = copy_snapshot(),
                             audience = std::move(audience)] {
         auto const bytes = share(protocol::encode(snapshot));
-        for (auto const& session : audience)
-            session->send_snapshot(bytes);
+        // Counted before any session can send it: a client that has a snapshot finds it
+        // in the count (/metrics, tests).
         self->report_bytes_ += bytes->size();
         ++self->counters_.snapshots;
+        for (auto const& session : audience)
+            session->send_snapshot(bytes);
         self->snapshot_encoding_ = false; // after the sends: the next is queued behind them
     });
 }
