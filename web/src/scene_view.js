@@ -275,6 +275,7 @@ export class SceneView {
   /** Where a world point appears, in CSS pixels of the page. */
   screen_of(x, y, z) {
     const rect = this.canvas.getBoundingClientRect();
+    this.camera.updateMatrixWorld(); // framed since the last frame drawn: project as it now is
     const v = new THREE.Vector3(x, y, z).project(this.camera);
     return { x: rect.left + ((v.x + 1) / 2) * rect.width, y: rect.top + ((1 - v.y) / 2) * rect.height };
   }

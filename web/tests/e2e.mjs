@@ -161,7 +161,10 @@ async function pickable_body() {
 
 async function open_room(room) {
   await page.goto(`http://127.0.0.1:${server.port}/?room=${room}`);
-  await wait_for(`the page to connect to room "${room}"`, (kugel, room) => kugel.state.connection === 'connected' && kugel.state.room === room && kugel.state.bodies > 0, room);
+  // A frame drawn after the welcome: the camera and the floor are where the scene put them
+  // (three.js updates their matrices as it draws), so a click lands where the test aims.
+  // A slow machine draws a few frames a second: a click before then missed the floor.
+  await wait_for(`the page to connect to room "${room}" and draw it`, (kugel, room) => kugel.state.connection === 'connected' && kugel.state.room === room && kugel.state.bodies > 0 && kugel.state.frames >= 2, room);
 }
 
 before(async () => {
