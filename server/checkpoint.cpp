@@ -68,6 +68,27 @@ double number_at(json const& c, std::size_t i, char const* key, std::string cons
     return c[i].get<double>();
 }
 
+/// The scene an admin loaded, its text checked against its fingerprint: an edit to either
+/// shows.
+embedded_scene decode_loaded_scene(json const& loaded, std::string const& file)
+{
+    if (!loaded.is_object())
+        refuse(file, "/loaded_scene", "must be an object");
+    auto const string_at = [&](char const* key) {
+        json const& v = field(loaded, key, file, "/loaded_scene");
+        if (!v.is_string())
+            refuse(file, std::string("/loaded_scene/") + key, "must be a string, got " + v.dump());
+        return v.get<std::string>();
+    };
+    embedded_scene s{string_at("name"), string_at("fingerprint"), string_at("text")};
+    if (std::string const actual = scene_fingerprint(s.text); actual != s.fingerprint)
+        refuse(file, "/loaded_scene",
+               fmt::format("its text's fingerprint is {}, not the {} recorded: the scene an admin "
+                           "loaded was changed in the file, or the file is corrupt",
+                           actual, s.fingerprint));
+    return s;
+}
+
 std::system_error last_error(std::string const& what, std::filesystem::path const& path)
 {
     return {errno, std::generic_category(), what + " " + path.string()};
@@ -103,7 +124,7 @@ std::string encode_checkpoint(checkpoint const& c)
         charge.push_back(b.desc.charge);
         is_static.push_back(b.desc.is_static);
     }
-    json const document{
+    json document{
         {"format", std::string(format_name)},
         {"version", checkpoint_format_version},
         {"room", c.room},
@@ -121,6 +142,10 @@ std::string encode_checkpoint(checkpoint const& c)
           {"radius", std::move(radius)},
           {"charge", std::move(charge)},
           {"static", std::move(is_static)}}}};
+    if (c.loaded_scene)
+        document["loaded_scene"] = {{"name", c.loaded_scene->name},
+                                    {"fingerprint", c.loaded_scene->fingerprint},
+                                    {"text", c.loaded_scene->text}};
     // nlohmann writes the shortest text that reads back as the same double: exact.
     return document.dump() + "\n";
 }
@@ -139,10 +164,11 @@ checkpoint decode_checkpoint(std::string_view text, std::string const& file)
     if (!document.contains("format") || !document["format"].is_string() ||
         document["format"].get<std::string>() != format_name)
         refuse(file, "/format", fmt::format("must be \"{}\": not a Kugel checkpoint", format_name));
+    // Version 1 is version 2 without loaded_scene: read as it always was.
     json const& version = field(document, "version", file, "");
-    if (version != checkpoint_format_version)
+    if (version != 1 && version != checkpoint_format_version)
         refuse(file, "/version",
-               fmt::format("format version {} is not the version {} this server reads",
+               fmt::format("format version {} is not a version this server reads (1 to {})",
                            version.dump(), checkpoint_format_version));
 
     checkpoint c;
@@ -161,6 +187,8 @@ checkpoint decode_checkpoint(std::string_view text, std::string const& file)
     c.time_compensation = number_field(document, "time_compensation", file);
     c.steps = unsigned_field(document, "steps", file);
     c.next_wire_id = unsigned_field(document, "next_id", file);
+    if (version != 1 && document.contains("loaded_scene"))
+        c.loaded_scene = decode_loaded_scene(document.at("loaded_scene"), file);
 
     json const& bodies = field(document, "bodies", file, "");
     if (!bodies.is_object())
@@ -201,6 +229,25 @@ checkpoint decode_checkpoint(std::string_view text, std::string const& file)
         // The rest (finite values, positive masses) the world checks as it adds the body.
     }
     return c;
+}
+
+scene::scene restored_scene(scene::scene const& own, checkpoint const& c, std::string const& file)
+{
+    if (!c.loaded_scene)
+        return own;
+    scene::scene loaded;
+    try {
+        // Its messages then read "checkpoint FILE: /loaded_scene/text: /bodies/0/radius: ...".
+        loaded = scene::parse_scene(c.loaded_scene->text,
+                                    fmt::format("checkpoint {}: /loaded_scene/text", file));
+    } catch (scene::scene_error const& e) {
+        throw checkpoint_error(e.what());
+    }
+    if (loaded.name != c.loaded_scene->name)
+        refuse(file, "/loaded_scene/name",
+               fmt::format("'{}' is not the name of the scene in its text, '{}'",
+                           c.loaded_scene->name, loaded.name));
+    return loaded;
 }
 
 physics::world restored_world(scene::scene const& s, checkpoint const& c, std::string const& file)

@@ -27,14 +27,26 @@ public:
 };
 
 /// Bumped whenever the file's meaning changes; another version is refused, never guessed at.
-inline constexpr int checkpoint_format_version = 1;
+/// Version 2 added `loaded_scene`: a server that knew only version 1 would put its bodies in
+/// the room's own scene. Version 1 files (none carries a loaded scene) are still read.
+inline constexpr int checkpoint_format_version = 2;
+
+/// A scene an admin loaded (load_scene), carried whole: a restart rebuilds the room in it.
+struct embedded_scene
+{
+    std::string name;
+    std::string fingerprint; ///< of text (scene_fingerprint())
+    std::string text;        ///< the scene's JSON, exactly as the scene loader read it
+};
 
 /// One room at one tick.
 struct checkpoint
 {
     std::string room;
-    std::string scene_name;
-    std::string scene_fingerprint; ///< of the scene's text (scene_fingerprint())
+    std::string scene_name;        ///< the room's own scene (its file)
+    std::string scene_fingerprint; ///< of the room's own scene's text (scene_fingerprint())
+    /// The scene the room runs when an admin loaded one; none: it runs its own.
+    std::optional<embedded_scene> loaded_scene;
     std::uint64_t tick = 0;        ///< ticks completed
     double time = 0.0;             ///< s, the world's clock
     double time_compensation = 0.0; ///< s, the clock's compensated-sum remainder
@@ -56,13 +68,19 @@ std::string scene_fingerprint(std::string_view scene_text);
 /// The file's text.
 std::string encode_checkpoint(checkpoint const& c);
 
-/// Parses a checkpoint's text; `file` names it in errors. Checks the format and version
-/// and that every body is well formed, but not which scene it belongs to.
+/// Parses a checkpoint's text; `file` names it in errors. Checks the format and version,
+/// that every body is well formed and that a loaded scene's text has its fingerprint, but
+/// not which room or scene it belongs to.
 checkpoint decode_checkpoint(std::string_view text, std::string const& file);
 
-/// The world of scene `s` with the checkpoint's bodies (in its slot order) instead of the
-/// scene's, and its clock. Throws checkpoint_error (naming `file`) for a body the world
-/// refuses.
+/// The scene a checkpoint's world is rebuilt in: the loaded scene it carries, or else the
+/// room's own scene `own`. Throws checkpoint_error (naming `file`) for a loaded scene the
+/// scene loader refuses or whose name is not the one recorded.
+scene::scene restored_scene(scene::scene const& own, checkpoint const& c, std::string const& file);
+
+/// The world of scene `s` (restored_scene()) with the checkpoint's bodies (in its slot
+/// order) instead of the scene's, and its clock. Throws checkpoint_error (naming `file`)
+/// for a body the world refuses.
 physics::world restored_world(scene::scene const& s, checkpoint const& c, std::string const& file);
 
 /// Where room `room`'s checkpoint lives in `dir`: DIR/ROOM.json.
@@ -74,7 +92,8 @@ std::filesystem::path checkpoint_path(std::filesystem::path const& dir, std::str
 void write_file_atomically(std::filesystem::path const& file, std::string_view text);
 
 /// Reads the checkpoint at `file` when there is one, and checks that it belongs to this
-/// room and scene. Throws checkpoint_error when it exists but cannot be used.
+/// room and its own scene (also when it carries a loaded scene: a changed scene file still
+/// refuses it). Throws checkpoint_error when it exists but cannot be used.
 std::optional<checkpoint> read_checkpoint(std::filesystem::path const& file,
                                           std::string const& room,
                                           std::string const& scene_name,
