@@ -76,16 +76,18 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
       period_(std::chrono::duration_cast<clock::duration>(
           std::chrono::duration<double>(1.0 / settings_.tick_rate))),
       checkpoint_timer_(strand_), scene_name_(s.name),
-      scene_fingerprint_(std::move(scene_fingerprint)), scene_(s),
+      scene_fingerprint_(std::move(scene_fingerprint)),
+      loaded_scene_(restored ? restored->loaded_scene : std::nullopt),
+      scene_(restored ? restored_scene(s, *restored, checkpoint_file().string()) : s),
       physics_threads_(settings_.physics_threads > 1
                            ? std::make_unique<physics::thread_pool>(settings_.physics_threads)
                            : nullptr),
-      world_(restored ? restored_world(s, *restored, checkpoint_path(settings_.state_dir, name_).string())
-                      : scene::build_world(s)),
-      dt_(s.dt), send_charges_(s.forces.coulomb.has_value())
+      world_(restored ? restored_world(scene_, *restored, checkpoint_file().string())
+                      : scene::build_world(scene_)),
+      dt_(scene_.dt), send_charges_(scene_.forces.coulomb.has_value())
 {
     world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
-    welcome_ = make_welcome(name_, s, world_, settings_);
+    welcome_ = make_welcome(name_, scene_, world_, settings_);
     auto const ids = world_.bodies().ids();
     for (std::size_t slot = 0; slot < ids.size(); ++slot) {
         physics::body_id const id = ids[slot];
@@ -110,6 +112,7 @@ checkpoint room::take_checkpoint() const
     c.room = name_;
     c.scene_name = scene_name_;
     c.scene_fingerprint = scene_fingerprint_;
+    c.loaded_scene = loaded_scene_;
     c.tick = counters_.ticks;
     c.time = world_.time();
     c.time_compensation = world_.time_compensation();
@@ -125,20 +128,19 @@ bool room::write_checkpoint()
 {
     if (settings_.state_dir.empty())
         return false;
-    if (scene_replaced_) {
-        spdlog::warn("room '{}': no final checkpoint: it runs a scene an admin loaded, which a "
-                     "restart could not rebuild; the last checkpoint of its own scene stays",
-                     name_);
-        return false;
-    }
     auto const started = clock::now();
     checkpoint const c = take_checkpoint();
     return write(c, clock::now() - started);
 }
 
+std::filesystem::path room::checkpoint_file() const
+{
+    return checkpoint_path(settings_.state_dir, name_);
+}
+
 bool room::write(checkpoint const& c, clock::duration take_cost)
 {
-    std::filesystem::path const file = checkpoint_path(settings_.state_dir, name_);
+    std::filesystem::path const file = checkpoint_file();
     try {
         auto const started = clock::now();
         std::string const text = encode_checkpoint(c);
@@ -172,13 +174,6 @@ void room::on_checkpoint_timer(beast::error_code ec)
 {
     if (ec || !running_)
         return;
-    if (scene_replaced_) {
-        if (!std::exchange(checkpoints_suspended_logged_, true))
-            spdlog::warn("room '{}': checkpoints stop while it runs a scene an admin loaded (a "
-                         "restart could not rebuild it); the last one of its own scene stays",
-                         name_);
-        return schedule_next_checkpoint();
-    }
     // Only the copy is taken here, between two ticks (0.2 ms for 10,000 bodies); encoding
     // and fsync (the most of the cost) run in the background, so the tick does not wait. One
     // write at a time: when the last is still under way, this interval's is skipped.
@@ -458,7 +453,8 @@ void room::apply(protocol::load_scene const& load, websocket_session& from, bool
         return refuse(traffic_, from, load.ref, error_code::bad_value,
                       std::string("/scene: cannot be built: ") + e.what());
     }
-    scene_replaced_ = true;
+    // Kept as the loader read it, so that a checkpoint rebuilds exactly this scene.
+    loaded_scene_ = embedded_scene{scene_.name, scene_fingerprint(load.scene.text), load.scene.text};
     spdlog::info("room '{}': scene '{}' replaced by '{}' ({} bodies, dt {} s) by client {}", name_,
                  old_name, scene_.name, world_.bodies().size(), dt_, from.client_id());
     from.send_reply(share(protocol::encode(protocol::ack{load.ref, counters_.ticks + 1, {}})));

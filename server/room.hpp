@@ -64,9 +64,10 @@ public:
     };
 
     /// Builds the scene's world, or (given a checkpoint of this scene) the checkpoint's
-    /// world, ids and tick. `scene_fingerprint` is written into this room's checkpoints.
-    /// Throws physics::singular_force_error if it cannot start, checkpoint_error for a
-    /// checkpoint body the world refuses.
+    /// world, ids and tick, in the scene an admin loaded when the checkpoint carries one.
+    /// `scene_fingerprint`, of `s`, is written into this room's checkpoints. Throws
+    /// physics::singular_force_error if it cannot start, checkpoint_error for a checkpoint
+    /// body the world refuses or a loaded scene the scene loader refuses.
     /// `ticks` runs the room's strand (its ticks, commands and snapshots' copies);
     /// `background` runs what must not hold up a tick (encoding snapshots, writing a
     /// checkpoint).
@@ -142,6 +143,8 @@ private:
     void schedule_next_tick();
     void schedule_next_checkpoint();
     void on_checkpoint_timer(beast::error_code ec);
+    /// Where this room's checkpoint lives: DIR/ROOM.json.
+    std::filesystem::path checkpoint_file() const;
     /// Encodes and writes a taken checkpoint; any thread, one write at a time.
     bool write(checkpoint const& c, clock::duration take_cost);
 
@@ -159,17 +162,16 @@ private:
     clock::time_point next_tick_at_;
     bool running_ = false;
     net::steady_timer checkpoint_timer_;
-    std::string scene_name_;
-    std::string scene_fingerprint_;
-    /// An admin loaded a scene that is in no file: a restart could not rebuild it, so no
-    /// checkpoint is written until the server restarts (the last one stays as it was).
-    bool scene_replaced_ = false;
-    bool checkpoints_suspended_logged_ = false;
+    std::string scene_name_;        ///< the room's own scene (its file)
+    std::string scene_fingerprint_; ///< of the room's own scene's text
+    /// The scene an admin loaded, in no file: every checkpoint carries it, so that a restart
+    /// rebuilds it. None while the room runs its own scene.
+    std::optional<embedded_scene> loaded_scene_;
     std::atomic<bool> checkpoint_failing_{false}; ///< the last write failed; logged once per streak
     std::atomic<bool> checkpoint_writing_{false}; ///< a periodic write is under way off the strand
     std::atomic<bool> snapshot_encoding_{false};  ///< a snapshot is being encoded off the strand
 
-    scene::scene scene_;               ///< the scene as loaded: what reset goes back to
+    scene::scene scene_;               ///< the scene it runs, as loaded: what reset goes back to
     /// Lent to world_ (and to each world that replaces it) when physics_threads > 1; declared
     /// first, so that it outlives the world it is lent to.
     std::unique_ptr<physics::thread_pool> physics_threads_;

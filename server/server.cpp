@@ -104,10 +104,14 @@ std::optional<checkpoint> restore_or_discard(server_options const& options, std:
     try {
         std::optional<checkpoint> c = read_checkpoint(file, room, s.name, fingerprint);
         if (c) {
-            // Bodies the world refuses are found here too, before anything is started.
-            (void)restored_world(s, *c, file.string());
-            spdlog::info("room '{}': restored from {}: tick {}, time {} s, {} bodies, next id {}",
-                         room, file.string(), c->tick, c->time, c->bodies.size(), c->next_wire_id);
+            // A loaded scene the loader refuses and bodies the world refuses are found here
+            // too, before anything is started.
+            scene::scene const runs = restored_scene(s, *c, file.string());
+            (void)restored_world(runs, *c, file.string());
+            spdlog::info("room '{}': restored from {}: scene '{}'{}, tick {}, time {} s, {} bodies, "
+                         "next id {}",
+                         room, file.string(), runs.name, c->loaded_scene ? " (loaded by an admin)" : "",
+                         c->tick, c->time, c->bodies.size(), c->next_wire_id);
         } else {
             spdlog::info("room '{}': no checkpoint at {}, starting from the scene", room,
                          file.string());

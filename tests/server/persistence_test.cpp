@@ -226,12 +226,12 @@ TEST(Persistence, TheIdCounterContinuesAfterARestart)
         EXPECT_NE(b.wire_id, fresh);
 }
 
-/// What a server says about a bad checkpoint, and that it left the file as it was.
-std::string refusal(fs::path const& dir, std::string const& bad_text)
+/// What a server (of `o`'s rooms) says about a bad checkpoint of room "default", and that it
+/// left the file as it was.
+std::string refusal(fs::path const& dir, std::string const& bad_text, server_options o = {})
 {
     fs::path const file = checkpoint_path(dir, "default");
     write_text(file, bad_text);
-    server_options o;
     o.state_dir = dir;
     o.port = 0;
     std::string message;
@@ -302,6 +302,249 @@ TEST(Persistence, DiscardBadStateMovesTheFileAsideAndStartsFresh)
     EXPECT_EQ(read_text(aside[0]), "{\"format\": \"kugel-checkpoint\", \"vers");
     // The fresh room's own final checkpoint took the name.
     EXPECT_NO_THROW(decode_checkpoint(read_text(file), file.string()));
+}
+
+/// Another scene than the still one: gravity, a smaller box, another dt and integrator.
+json drop_scene()
+{
+    return {{"name", "drop"},
+            {"dt", 0.01},
+            {"integrator", "velocity_verlet"},
+            {"forces", {{"uniform_field", {{"g", {0, 0, -9.81}}}}}},
+            {"box", {{"min", {-2, -2, 0}}, {"max", {2, 2, 4}}}},
+            {"bodies", json::array({{{"position", {0, 0, 3}}, {"radius", 0.2}, {"mass", 1}},
+                                    {{"position", {1, 0, 3}}, {"radius", 0.2}, {"mass", 1}}})}};
+}
+
+constexpr char const* admin_token = "persistence-test-admin-token";
+
+/// Room "default" running the still scene (written to `dir`), checkpointed to `dir`.
+server_options still_room(fs::path const& dir)
+{
+    server_options o;
+    o.state_dir = dir;
+    o.admin_token = admin_token;
+    o.rooms.push_back({"default", write_scene(dir, "still", still_scene())});
+    return o;
+}
+
+json load_drop_scene(std::uint64_t ref) { return {{"type", "load_scene"}, {"ref", ref}, {"scene", drop_scene()}}; }
+
+std::vector<std::uint64_t> ids_of(json const& snapshot)
+{
+    return snapshot.at("bodies").at("id").get<std::vector<std::uint64_t>>();
+}
+
+/// Runs room "default" on the still scene, has an admin load the drop scene and spawn a body
+/// in it, stops the server, and returns its final checkpoint's file.
+fs::path loaded_scene_checkpoint(fs::path const& dir, std::uint64_t& spawned)
+{
+    server_options o = still_room(dir);
+    o.checkpoint_interval = std::chrono::hours(1); // only the final one
+    test_support::in_process_server s(o);
+    ws_client c(s.port(), "/ws");
+    c.next("welcome");
+    c.send(json{{"type", "hello"}, {"admin_token", admin_token}});
+    c.next("welcome");
+    c.send(load_drop_scene(1));
+    ack_of(c, 1);
+    c.send(spawn_at(2, {-1.0, -1.0, 1.0 / 3.0 + 1.0}, {0.5, 0.1 + 0.2, 0.0}));
+    spawned = ack_of(c, 2);
+    snapshot_at_or_after(c, s.ticks("default") + 20);
+    s.stop();
+    return checkpoint_path(dir, "default");
+}
+
+TEST(Persistence, ALoadedSceneIsCheckpointedAndARestartRunsItWithTheSameBodiesIdsAndTick)
+{
+    fs::path const dir = fresh_dir("loaded");
+    std::uint64_t spawned = 0;
+    fs::path const file = loaded_scene_checkpoint(dir, spawned);
+    std::string const text = read_text(file);
+    checkpoint const saved = decode_checkpoint(text, file.string());
+    EXPECT_EQ(json::parse(text).at("version"), 2);
+    EXPECT_EQ(saved.scene_name, "still"); // the room's own scene, still checked at a restart
+    EXPECT_EQ(saved.scene_fingerprint, scene_fingerprint(read_text(dir / "still.scene.json")));
+    ASSERT_TRUE(saved.loaded_scene);
+    EXPECT_EQ(saved.loaded_scene->name, "drop");
+    EXPECT_EQ(json::parse(saved.loaded_scene->text), drop_scene());
+    EXPECT_EQ(saved.loaded_scene->fingerprint, scene_fingerprint(saved.loaded_scene->text));
+    ASSERT_EQ(saved.bodies.size(), 3u); // the drop scene's two, then the spawned one
+    EXPECT_EQ(saved.bodies[2].wire_id, spawned);
+    EXPECT_EQ(saved.next_wire_id, spawned + 1);
+
+    // A room made from it runs the loaded scene with the checkpoint's state, bit for bit.
+    net::io_context io;
+    scene::scene const still = scene::load_scene(dir / "still.scene.json");
+    room restored(io, io.get_executor(), "default", still, {}, saved.scene_fingerprint, saved);
+    checkpoint const again = restored.take_checkpoint();
+    expect_identical(saved, again);
+    EXPECT_EQ(encode_checkpoint(again), text); // byte for byte, the loaded scene included
+
+    // A server restarted from the directory: the drop scene's welcome (walls, obstacles, dt;
+    // the bounds hold the bodies it has now, the spawned one too)...
+    json drop_welcome;
+    {
+        fs::path const other = fresh_dir("loaded_reference");
+        server_options o;
+        o.rooms.push_back({"default", write_scene(other, "drop", drop_scene())});
+        test_support::in_process_server reference(o);
+        ws_client c(reference.port(), "/ws");
+        drop_welcome = c.next("welcome");
+    }
+    test_support::in_process_server s(still_room(dir));
+    ws_client c(s.port(), "/ws");
+    json const welcome = c.next("welcome");
+    EXPECT_EQ(welcome.at("scene").at("name"), "drop");
+    EXPECT_EQ(welcome.at("scene").at("walls"), drop_welcome.at("scene").at("walls"));
+    EXPECT_EQ(welcome.at("scene").at("obstacles"), drop_welcome.at("scene").at("obstacles"));
+    EXPECT_EQ(welcome.at("dt"), 0.01);
+    // ... the checkpoint's bodies and ids, its tick going on, and the drop scene's gravity.
+    json const first = c.next("snapshot");
+    EXPECT_GT(first.at("tick").get<std::uint64_t>(), saved.tick);
+    std::vector<std::uint64_t> saved_ids;
+    for (checkpoint::body const& b : saved.bodies)
+        saved_ids.push_back(b.wire_id);
+    EXPECT_EQ(ids_of(first), saved_ids);
+    json const later = snapshot_at_or_after(c, first.at("tick").get<std::uint64_t>() + 2);
+    auto const vz = [](json const& snapshot) { return snapshot.at("bodies").at("velocity")[2].get<double>(); };
+    EXPECT_LT(vz(later), vz(first)) << "body 0 falls faster: the loaded scene's gravity acts";
+    c.send(spawn_at(1, {1.0, 1.0, 1.0}));
+    EXPECT_EQ(ack_of(c, 1), saved.next_wire_id);
+}
+
+TEST(Persistence, ResetAfterARestartGoesBackToTheLoadedScene)
+{
+    fs::path const dir = fresh_dir("loaded_reset");
+    std::uint64_t spawned = 0;
+    checkpoint const saved =
+        decode_checkpoint(read_text(loaded_scene_checkpoint(dir, spawned)), "");
+
+    test_support::in_process_server s(still_room(dir));
+    ws_client c(s.port(), "/ws");
+    c.next("welcome");
+    c.send(json{{"type", "hello"}, {"admin_token", admin_token}});
+    c.next("welcome");
+    c.send(json{{"type", "reset"}, {"ref", 1}});
+    json const reset = c.next("ack");
+    // The drop scene's two bodies (the still scene has one, at the origin), with new ids.
+    json const fresh = snapshot_at_or_after(c, reset.at("tick").get<std::uint64_t>());
+    std::vector<std::uint64_t> const ids = ids_of(fresh);
+    ASSERT_EQ(ids.size(), 2u) << fresh.dump();
+    for (std::uint64_t const id : ids)
+        EXPECT_GE(id, saved.next_wire_id);
+    auto const& position = fresh.at("bodies").at("position");
+    EXPECT_EQ(position[0], 0.0);
+    EXPECT_EQ(position[3], 1.0);
+    EXPECT_GT(position[2].get<double>(), 2.5); // dropped from 3 m, a few ticks ago
+    EXPECT_LE(position[2].get<double>(), 3.0);
+
+    // And a checkpoint after the reset still carries the loaded scene.
+    s.stop();
+    checkpoint const after = decode_checkpoint(read_text(checkpoint_path(dir, "default")), "");
+    ASSERT_TRUE(after.loaded_scene);
+    EXPECT_EQ(after.loaded_scene->text, saved.loaded_scene->text);
+}
+
+TEST(Persistence, AVersionOneCheckpointStillRestoresInTheRoomsOwnScene)
+{
+    fs::path const dir = fresh_dir("version_one");
+    server_options o = still_room(dir);
+    std::uint64_t spawned = 0;
+    {
+        test_support::in_process_server s(o);
+        ws_client c(s.port(), "/ws");
+        c.next("welcome");
+        c.send(spawn_at(1, {1.0 / 3.0, 2.0, -1.0}));
+        spawned = ack_of(c, 1);
+        snapshot_at_or_after(c, 10);
+    }
+    // What a version-1 server wrote: the same document, without loaded_scene, version 1.
+    fs::path const file = checkpoint_path(dir, "default");
+    json version_one = json::parse(read_text(file));
+    ASSERT_FALSE(version_one.contains("loaded_scene"));
+    version_one["version"] = 1;
+    write_text(file, version_one.dump() + "\n");
+    checkpoint const saved = decode_checkpoint(read_text(file), file.string());
+    EXPECT_FALSE(saved.loaded_scene);
+
+    test_support::in_process_server s(o);
+    ws_client c(s.port(), "/ws");
+    EXPECT_EQ(c.next("welcome").at("scene").at("name"), "still");
+    json const first = c.next("snapshot");
+    EXPECT_GT(first.at("tick").get<std::uint64_t>(), saved.tick);
+    EXPECT_EQ(ids_of(first), (std::vector<std::uint64_t>{1, spawned}));
+    s.stop();
+    EXPECT_EQ(json::parse(read_text(file)).at("version"), 2); // written in the current version
+}
+
+TEST(Persistence, ATamperedLoadedSceneIsRefusedAndLeftUntouched)
+{
+    fs::path const dir = fresh_dir("loaded_tampered");
+    std::uint64_t spawned = 0;
+    json const good = json::parse(read_text(loaded_scene_checkpoint(dir, spawned)));
+    server_options const o = still_room(dir);
+    auto const refused = [&](json const& bad) { return refusal(dir, bad.dump(), o); };
+    auto const contains = [](std::string const& message, std::string const& part) {
+        return message.find(part) != std::string::npos;
+    };
+
+    // The scene's text edited (a radius), or its fingerprint: they no longer agree.
+    json edited_text = good;
+    std::string& text = edited_text["loaded_scene"]["text"].get_ref<std::string&>();
+    std::size_t const radius = text.find("0.2");
+    ASSERT_NE(radius, std::string::npos) << text;
+    text.replace(radius, 3, "0.3");
+    std::string message = refused(edited_text);
+    EXPECT_TRUE(contains(message, "/loaded_scene: its text's fingerprint is")) << message;
+    EXPECT_TRUE(contains(message, "changed in the file, or the file is corrupt")) << message;
+
+    json edited_fingerprint = good;
+    edited_fingerprint["loaded_scene"]["fingerprint"] = scene_fingerprint("{}");
+    message = refused(edited_fingerprint);
+    EXPECT_TRUE(contains(message, "/loaded_scene: its text's fingerprint is")) << message;
+
+    // Both changed to agree, on a scene the scene loader refuses: its message, in the file.
+    json bad_scene = good;
+    json negative = drop_scene();
+    negative["bodies"][0]["radius"] = -1;
+    bad_scene["loaded_scene"]["text"] = negative.dump();
+    bad_scene["loaded_scene"]["fingerprint"] = scene_fingerprint(negative.dump());
+    message = refused(bad_scene);
+    EXPECT_TRUE(contains(message, "/loaded_scene/text: /bodies/0/radius")) << message;
+
+    json renamed = good;
+    renamed["loaded_scene"]["name"] = "still";
+    message = refused(renamed);
+    EXPECT_TRUE(contains(message, "/loaded_scene/name")) << message;
+
+    json not_text = good;
+    not_text["loaded_scene"]["text"] = drop_scene();
+    message = refused(not_text);
+    EXPECT_TRUE(contains(message, "/loaded_scene/text: must be a string")) << message;
+
+    json no_fingerprint = good;
+    no_fingerprint["loaded_scene"].erase("fingerprint");
+    message = refused(no_fingerprint);
+    EXPECT_TRUE(contains(message, "/loaded_scene/fingerprint: missing")) << message;
+
+    // The room's own scene file is still checked: another file refuses it too.
+    json other_own_scene = good;
+    other_own_scene["scene"]["fingerprint"] = scene_fingerprint("{\"name\": \"still\"}");
+    message = refused(other_own_scene);
+    EXPECT_TRUE(contains(message, "another scene, or the scene file changed")) << message;
+
+    // --discard-bad-state moves it aside and starts the room from its own scene.
+    server_options discard = o;
+    discard.discard_bad_state = true;
+    write_text(checkpoint_path(dir, "default"), edited_text.dump());
+    test_support::in_process_server s(discard);
+    ws_client c(s.port(), "/ws");
+    EXPECT_EQ(c.next("welcome").at("scene").at("name"), "still");
+    std::size_t aside = 0;
+    for (auto const& entry : fs::directory_iterator(dir))
+        aside += entry.path().filename().string().starts_with("default.json.bad-") ? 1u : 0u;
+    EXPECT_EQ(aside, 1u);
 }
 
 fs::path log_file(std::string const& name)
@@ -378,6 +621,57 @@ TEST(PersistenceProcess, SigtermWritesAFinalCheckpoint)
     ASSERT_EQ(saved.bodies.size(), 2u);
     EXPECT_EQ(saved.bodies[1].wire_id, spawned);
     EXPECT_EQ(saved.next_wire_id, spawned + 1);
+}
+
+TEST(PersistenceProcess, SigkillWhileALoadedSceneRunsRestartsInThatScene)
+{
+    fs::path const dir = fresh_dir("sigkill_loaded");
+    std::vector<std::string> const args{"--room", "still=" + write_scene(dir, "still", still_scene()).string(),
+                                        "--state", dir.string(), "--checkpoint-interval", "0.05",
+                                        "--admin-token", admin_token};
+    fs::path const file = checkpoint_path(dir, "still");
+    std::uint64_t spawned = 0;
+    std::string killed_at; // the checkpoint's text when the server died
+    {
+        test_support::server_child p(KUGEL_SERVER_EXE, args, log_file("sigkill_loaded_first"));
+        ws_client c(p.port(), "/ws/still");
+        c.next("welcome");
+        c.send(json{{"type", "hello"}, {"admin_token", admin_token}});
+        c.next("welcome");
+        c.send(load_drop_scene(1));
+        ack_of(c, 1);
+        c.send(spawn_at(2, {-1.0, 1.0, 1.0 / 3.0}));
+        spawned = ack_of(c, 2);
+        // The periodic checkpoints go on in the loaded scene: wait for one with the body.
+        auto const deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+        for (;;) {
+            ASSERT_LT(std::chrono::steady_clock::now(), deadline) << p.log();
+            if (fs::exists(file)) {
+                checkpoint const c2 = decode_checkpoint(read_text(file), file.string());
+                if (c2.loaded_scene && c2.bodies.size() == 3 && c2.bodies[2].wire_id == spawned)
+                    break;
+            }
+            std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        }
+        p.kill();
+        killed_at = read_text(file);
+    }
+    checkpoint const saved = decode_checkpoint(killed_at, file.string());
+
+    test_support::server_child p(KUGEL_SERVER_EXE, args, log_file("sigkill_loaded_second"));
+    EXPECT_NE(p.log().find("scene 'drop' (loaded by an admin)"), std::string::npos) << p.log();
+    ws_client c(p.port(), "/ws/still");
+    json const welcome = c.next("welcome");
+    EXPECT_EQ(welcome.at("scene").at("name"), "drop");
+    EXPECT_EQ(welcome.at("dt"), 0.01);
+    json const s = c.next("snapshot");
+    EXPECT_GT(s.at("tick").get<std::uint64_t>(), saved.tick);
+    std::vector<std::uint64_t> saved_ids;
+    for (checkpoint::body const& b : saved.bodies)
+        saved_ids.push_back(b.wire_id);
+    EXPECT_EQ(ids_of(s), saved_ids);
+    c.send(spawn_at(3, {1.0, -1.0, 1.0}));
+    EXPECT_EQ(ack_of(c, 3), spawned + 1);
 }
 
 TEST(PersistenceProcess, ABadCheckpointStopsTheStartWithExitTwo)
