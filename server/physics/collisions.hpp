@@ -99,6 +99,7 @@ struct contact_slab
     std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved
     std::vector<std::uint32_t> moved;   ///< of those, the body slots no response moved before
     std::uint64_t responses = 0;        ///< sphere–sphere responses
+    bool changed = false;               ///< the last velocity pass changed a velocity
 };
 
 
