@@ -1,11 +1,18 @@
 #include "sphere_grid.hpp"
 
+#include "aabb.hpp"
+
 #include <algorithm>
 #include <array>
 #include <cmath>
+#include <cstring>
 #include <limits>
 #include <optional>
 #include <utility>
+
+#if defined(__SSE2__)
+#include <emmintrin.h>
+#endif
 
 namespace kugel::physics {
 
@@ -21,6 +28,11 @@ constexpr std::uint32_t most_slabs = 16;
 /// Up to this many cells per sphere the grid keeps a table of every cell's start (a gas at
 /// 10% fill has about 5); beyond it, a sparse scene, it searches the sorted keys instead.
 constexpr std::uint64_t dense_cells_per_sphere = 16;
+/// Up to this many cells (a 4 MiB table) one thread sorts all spheres at once; a larger
+/// table is sorted slab by slab even on one thread, so that each slab's part of the table
+/// stays in cache while its spheres are counted and placed (at 10^6 spheres the slabs were
+/// faster by 5%, bench/README.md).
+constexpr std::uint64_t direct_sort_cells = std::uint64_t{1} << 20;
 
 /// floor(q) for |q| < 2^53, without a library call.
 std::int64_t floor_to_integer(double q)
@@ -130,6 +142,35 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         return static_cast<std::uint64_t>(floor_to_integer(x[i][axis] / cell_size) -
                                           lowest_cell[static_cast<std::size_t>(axis)] + 1);
     };
+    if (dense_ && !loops && *cells <= direct_sort_cells) {
+        // On one thread, a single counting sort over every cell, straight from the bodies:
+        // the same order (cell, then slot) without the buckets per slab that let threads sort
+        // slabs at the same time. A slab then starts where its first cell does.
+        keys_.resize(n);
+        cell_begin_.assign(*cells + 1, 0U);
+        for (std::size_t i = 0; i < n; ++i) {
+            if (!(radius[i] > 0.0))
+                continue;
+            keys_[i] = cell_of(i, 0) * stride_x_ + cell_of(i, 1) * stride_y_ + cell_of(i, 2);
+            ++cell_begin_[keys_[i]];
+        }
+        std::uint32_t sum = 0;
+        for (std::uint32_t& cell : cell_begin_)
+            cell = sum += cell; // each cell's end, for now
+        filed_.resize(all.spheres);
+        for (std::size_t i = n; i-- > 0;) {
+            if (radius[i] > 0.0) // now each cell's start:
+                filed_[--cell_begin_[keys_[i]]] = {keys_[i], static_cast<std::uint32_t>(i),
+                                                   {x[i], radius[i], inverse_mass[i]}};
+        }
+        slab_begin_.resize(slabs + 1);
+        for (std::uint32_t s = 0; s <= slabs; ++s)
+            slab_begin_[s] = s < slabs ? cell_begin_[slab_cell_[s]] : all.spheres;
+        boxes_.resize(all.spheres);
+        file_boxes(0, all.spheres);
+        return true;
+    }
+
     // A table of each x-cell's slab spares a 64-bit division per sphere (the padding cells
     // belong to the first and last slab).
     std::size_t const table_x = dense_ ? static_cast<std::size_t>(size[0]) : 0;
@@ -178,8 +219,10 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     //    slab's cells, stable, which leaves the table of where each cell starts (dense), or a
     //    comparison sort (sparse). The slabs' cells and entries are disjoint, so slabs sort
     //    at the same time.
-    if (dense_)
+    if (dense_) {
         cell_begin_.resize(*cells + 1);
+        boxes_.resize(all.spheres);
+    }
     filed_.resize(all.spheres);
     run_loop(loops, slabs, [&](std::size_t s) {
         std::uint32_t const begin = slab_begin_[s], end = slab_begin_[s + 1];
@@ -194,6 +237,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
                 *cell = sum += *cell; // each cell's end, for now
             for (std::uint32_t k = end; k-- > begin;)
                 filed_[--cell_begin_[by_slab_[k].cell]] = by_slab_[k]; // now each cell's start
+            file_boxes(begin, end);
         } else {
             auto const first = filed_.begin() + begin, last = filed_.begin() + end;
             std::copy(by_slab_.begin() + begin, by_slab_.begin() + end, first);
@@ -236,21 +280,14 @@ std::size_t sphere_grid::slab_of(std::uint32_t rank) const
 void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
                              std::vector<sphere_pair>& touching) const
 {
-    if (dense_) {
-        near_pairs(s, near, touching, [&](std::uint64_t key) { return cell_begin_[key]; });
-    } else {
-        near_pairs(s, near, touching, [&](std::uint64_t key) {
-            auto const found = std::partition_point(filed_.begin(), filed_.end(),
-                                                    [&](filed_sphere const& e) { return e.cell < key; });
-            return static_cast<std::uint32_t>(found - filed_.begin());
-        });
-    }
-}
-
-template <class First>
-void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
-                             std::vector<sphere_pair>& touching, First const& first_at_or_after) const
-{
+    if (dense_)
+        return near_pairs_dense(s, near, touching);
+    // A sparse scene: each run's ends searched for in the sorted keys, one run after another.
+    auto const first_at_or_after = [&](std::uint64_t key) {
+        auto const found = std::partition_point(filed_.begin(), filed_.end(),
+                                                [&](filed_sphere const& e) { return e.cell < key; });
+        return static_cast<std::uint32_t>(found - filed_.begin());
+    };
     near.clear();
     touching.clear();
     std::array<std::uint64_t, 4> const row_offsets = {stride_y_, stride_x_ - stride_y_, stride_x_,
@@ -263,19 +300,11 @@ void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
             runs[k + 1] = {first_at_or_after(key + row_offsets[k] - 1),
                            first_at_or_after(key + row_offsets[k] + 2)};
         packed_sphere const& a = filed_[p].sphere;
-        vec3 const a_lo = (a.x.array() - a.radius).matrix(), a_hi = (a.x.array() + a.radius).matrix();
+        aabb const a_box = aabb_of_sphere(a.x, a.radius);
         for (auto const& [begin, end] : runs) {
             for (std::uint32_t q = begin; q < end; ++q) {
                 packed_sphere const& b = filed_[q].sphere;
-                // overlaps() from aabb.hpp on [x − r, x + r]: max(lo) <= min(hi) is lo_a <= hi_b
-                // and lo_b <= hi_a (as lo <= hi), tested without a branch per axis
-                bool meet = a_lo.x() <= b.x.x() + b.radius;
-                meet &= b.x.x() - b.radius <= a_hi.x();
-                meet &= a_lo.y() <= b.x.y() + b.radius;
-                meet &= b.x.y() - b.radius <= a_hi.y();
-                meet &= a_lo.z() <= b.x.z() + b.radius;
-                meet &= b.x.z() - b.radius <= a_hi.z();
-                if (!meet)
+                if (!overlaps(a_box, aabb_of_sphere(b.x, b.radius)))
                     continue;
                 sphere_pair const pair = filed_[p].slot < filed_[q].slot ? sphere_pair{p, q} : sphere_pair{q, p};
                 near.push_back(pair);
@@ -285,6 +314,116 @@ void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
                     touching.push_back(pair);
             }
         }
+    }
+}
+
+// The same runs and tests as the sparse search above, with the runs' ends read from the table
+// of cells and written for speed: this is the hottest loop of a discrete step (bench/README.md).
+// A gas has about 0.6 spheres per run, so runs of 0, 1 or 2 spheres come in no pattern the
+// processor can predict, and neither does the test's outcome. So a sphere's candidates are
+// gathered from its five runs into one short list, four ranks per run in one write (the count
+// keeps only the run's own), and each candidate's pair is written whatever the test says and
+// kept by advancing the count by the result: one loop of unpredictable length per sphere
+// instead of five, and no branch on the outcome. The box test reads the boxes kept for it
+// (filed_box) two coordinates at a time: the same comparisons of the same numbers.
+void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near,
+                                   std::vector<sphere_pair>& touching) const
+{
+    using ranks4 = std::uint32_t __attribute__((vector_size(16)));
+    constexpr std::uint32_t runs = 5;
+    constexpr std::uint32_t gather_width = 4; // runs shorter than this are gathered in one write
+    ranks4 const ascending = {0, 1, 2, 3};
+    std::array<std::uint32_t, runs * gather_width> gathered;
+    std::vector<std::uint32_t> spilled;
+    // Each row's first cell, from the sphere's own; its three cells end three further on.
+    auto const row = [](std::uint64_t offset) { return static_cast<std::ptrdiff_t>(offset) - 1; };
+    std::ptrdiff_t const first_of_row[4] = {row(stride_y_), row(stride_x_ - stride_y_), row(stride_x_),
+                                            row(stride_x_ + stride_y_)};
+    std::size_t found = 0; // near pairs written
+    for (std::uint32_t p = slab_begin_[s]; p < slab_begin_[s + 1]; ++p) {
+        std::uint32_t const* const cell = cell_begin_.data() + filed_[p].cell;
+        std::uint32_t const begin[runs] = {p + 1, cell[first_of_row[0]], cell[first_of_row[1]],
+                                           cell[first_of_row[2]], cell[first_of_row[3]]};
+        std::uint32_t const end[runs] = {cell[2], cell[first_of_row[0] + 3], cell[first_of_row[1] + 3],
+                                         cell[first_of_row[2] + 3], cell[first_of_row[3] + 3]};
+        std::uint32_t count = 0, any_length = 0;
+#pragma GCC unroll 5
+        for (std::uint32_t k = 0; k < runs; ++k) {
+            count += end[k] - begin[k];
+            any_length |= end[k] - begin[k]; // below gather_width (a power of 2) only if all are
+        }
+        if (near.size() < found + count)
+            near.resize(found + count + near.size() / 2);
+        std::uint32_t const* candidate = gathered.data();
+        if (any_length < gather_width) {
+            std::uint32_t filled = 0;
+#pragma GCC unroll 5
+            for (std::uint32_t k = 0; k < runs; ++k) {
+                ranks4 const run = begin[k] + ascending;
+                std::memcpy(gathered.data() + filled, &run, sizeof run);
+                filled += end[k] - begin[k];
+            }
+        } else {
+            spilled.clear();
+            for (std::uint32_t k = 0; k < runs; ++k)
+                for (std::uint32_t q = begin[k]; q < end[k]; ++q)
+                    spilled.push_back(q);
+            candidate = spilled.data();
+        }
+
+        // overlaps() from aabb.hpp: max(lo) <= min(hi) is lo_a <= hi_b and lo_b <= hi_a (as
+        // lo <= hi); in z, lo_a <= hi_b and −hi_a <= −lo_b (exact negations). Two at a time
+        // where the processor can: the same comparisons of the same numbers.
+        filed_box const& a = boxes_[p];
+#if defined(__SSE2__)
+        __m128d const a_lo_xy = _mm_loadu_pd(&a.lo_x), a_hi_xy = _mm_loadu_pd(&a.hi_x);
+        __m128d const a_z = _mm_set_pd(-a.hi_z, -a.minus_lo_z);
+        auto const meets = [&](filed_box const& b) {
+            __m128d const xy = _mm_and_pd(_mm_cmple_pd(a_lo_xy, _mm_loadu_pd(&b.hi_x)),
+                                          _mm_cmple_pd(_mm_loadu_pd(&b.lo_x), a_hi_xy));
+            return _mm_movemask_pd(_mm_and_pd(xy, _mm_cmple_pd(a_z, _mm_loadu_pd(&b.hi_z)))) == 3;
+        };
+#else
+        auto const meets = [&](filed_box const& b) {
+            return (a.lo_x <= b.hi_x) & (b.lo_x <= a.hi_x) & (a.lo_y <= b.hi_y) & (b.lo_y <= a.hi_y) &
+                   (-a.minus_lo_z <= b.hi_z) & (-a.hi_z <= b.minus_lo_z);
+        };
+#endif
+        for (std::uint32_t k = 0; k < count; ++k) {
+            std::uint32_t const q = candidate[k];
+            near[found] = {p, q};
+            found += meets(boxes_[q]);
+        }
+    }
+    near.resize(found);
+
+    // Then each near pair on its own: a is the sphere in the lower slot, and those that touch
+    // are contacts. Their order stays that of the search.
+    touching.resize(found);
+    std::size_t touched = 0;
+    for (sphere_pair& pair : near) {
+        // p and q swapped by a mask, not a branch: slots are in no order, so a branch would be
+        // mispredicted half the time
+        std::uint32_t const swap = 0U - static_cast<std::uint32_t>(filed_[pair.b].slot < filed_[pair.a].slot);
+        std::uint32_t const flip = (pair.a ^ pair.b) & swap;
+        pair = {pair.a ^ flip, pair.b ^ flip};
+        // the discrete step's contact test: |x_i − x_j|² against (r_i + r_j)²
+        packed_sphere const& a = filed_[pair.a].sphere;
+        packed_sphere const& b = filed_[pair.b].sphere;
+        double const reach = a.radius + b.radius;
+        touching[touched] = pair;
+        touched += !((a.x - b.x).squaredNorm() > reach * reach);
+    }
+    touching.resize(touched);
+}
+
+void sphere_grid::file_boxes(std::uint32_t begin, std::uint32_t end)
+{
+    for (std::uint32_t k = begin; k < end; ++k) {
+        packed_sphere const& e = filed_[k].sphere;
+        // aabb_of_sphere's bounds, the same roundings
+        boxes_[k] = {e.x.x() - e.radius, e.x.y() - e.radius, e.x.x() + e.radius,
+                     e.x.y() + e.radius, e.x.z() + e.radius, -(e.x.z() - e.radius)};
     }
 }
 
