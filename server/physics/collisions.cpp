@@ -151,12 +151,15 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
 {
     out.moved.clear();
     out.responses = 0;
+    out.accelerated = false;
     for (std::size_t k = begin; k < end; ++k) {
         auto const i = static_cast<std::uint32_t>(k);
         // Without forces the change is zero, and then so is the quotient (0/h keeps the sign
         // of zero): the division, slow beside everything else here, is skipped.
         vec3 const change = b.v[i] - b.v0[i];
-        free_a[i] = (change.array() == 0.0).all() ? change : vec3(change / h);
+        bool const still = (change.array() == 0.0).all();
+        free_a[i] = still ? change : vec3(change / h);
+        out.accelerated |= !still;
         was_moved[i] = 0;
         double const r = b.radius[i];
         if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))
@@ -345,6 +348,10 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
         });
     });
 
+    // Whether any sphere accelerated in free motion: if none did, every contact's rest
+    // threshold has no acceleration in it, and free_a is not read (random reads by slot).
+    bool const accelerated = std::any_of(ws.wall_chunks.begin(), ws.wall_chunks.end(),
+                                         [](wall_chunk const& chunk) { return chunk.accelerated; });
     auto normal_of = [&](std::uint32_t p, std::uint32_t q, double& gap) {
         vec3 const d = packed(p).x - packed(q).x;
         double const distance = d.norm();
@@ -354,14 +361,23 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
     for (int pass = 0; pass < std::max(settings.velocity_iterations, 1); ++pass) {
         by_parity([&](contact_slab& slab) {
             slab.changed = false;
-            for (sphere_pair const& c : slab.contacts) {
+            // The contacts' normals, at positions these passes do not change: found once.
+            if (pass == 0) {
+                slab.normals.resize(slab.contacts.size());
+                for (std::size_t k = 0; k < slab.contacts.size(); ++k) {
+                    double gap = 0.0;
+                    slab.normals[k] = normal_of(slab.contacts[k].a, slab.contacts[k].b, gap);
+                }
+            }
+            for (std::size_t k = 0; k < slab.contacts.size(); ++k) {
+                sphere_pair const& c = slab.contacts[k];
                 std::uint32_t const i = slot_of(c.a), j = slot_of(c.b);
-                double gap = 0.0;
-                vec3 const n = normal_of(c.a, c.b, gap);
+                vec3 const& n = slab.normals[k];
                 double const closing = (b.v[i] - b.v[j]).dot(n);
                 if (closing >= 0.0)
                     continue;
-                double const threshold = detail::rest_threshold(settings, free_a[i] - free_a[j], n, h);
+                double const threshold = detail::rest_threshold(
+                    settings, accelerated ? vec3(free_a[i] - free_a[j]) : vec3::Zero(), n, h);
                 double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
                 auto const w = collide_spheres(b.v[i], packed(c.a).inverse_mass, b.v[j],
                                                packed(c.b).inverse_mass, n, e);

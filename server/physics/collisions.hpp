@@ -95,6 +95,7 @@ struct contact_slab
 {
     std::vector<sphere_pair> near;      ///< boxes overlap, in resolution order
     std::vector<sphere_pair> contacts;  ///< the near pairs that touch, in the same order
+    std::vector<vec3> normals;          ///< each contact's unit normal, from b to a
     std::vector<std::uint32_t> touched; ///< the spheres a pass changed that this slab lists
     std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved
     std::vector<std::uint32_t> moved;   ///< of those, the body slots no response moved before
@@ -109,6 +110,7 @@ struct wall_chunk
 {
     std::vector<std::uint32_t> moved; ///< the spheres that bounced
     std::uint64_t responses = 0;      ///< sphere–wall responses
+    bool accelerated = false;         ///< some body's free motion changed its velocity
 };
 
 /// Scratch space reused across steps.
