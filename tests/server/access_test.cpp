@@ -25,6 +25,7 @@ namespace {
 using nlohmann::json;
 using protocol::testing::schemas;
 using test_support::ws_client;
+using test_support::drop_scene;
 namespace fs = std::filesystem;
 
 constexpr char const* token = "correct-horse-battery-staple";
@@ -131,18 +132,6 @@ json impulse(std::uint64_t ref, std::uint64_t id, std::array<double, 3> j)
 json remove(std::uint64_t ref, std::uint64_t id)
 {
     return {{"type", "remove"}, {"ref", ref}, {"id", id}};
-}
-
-/// A scene that differs from the still scene in every way a welcome shows.
-json drop_scene()
-{
-    return {{"name", "drop"},
-            {"dt", 0.01},
-            {"integrator", "velocity_verlet"},
-            {"forces", {{"uniform_field", {{"g", {0, 0, -9.81}}}}}},
-            {"box", {{"min", {-2, -2, 0}}, {"max", {2, 2, 4}}}},
-            {"bodies", json::array({{{"position", {0, 0, 3}}, {"radius", 0.2}, {"mass", 1}},
-                                    {{"position", {1, 0, 3}}, {"radius", 0.2}, {"mass", 1}}})}};
 }
 
 std::vector<std::uint64_t> ids(json const& snapshot)

@@ -53,6 +53,7 @@ void write_text(fs::path const& file, std::string const& text)
 }
 
 using test_support::still_scene;
+using test_support::drop_scene;
 
 fs::path write_scene(fs::path const& dir, std::string const& name, json const& scene)
 {
@@ -304,18 +305,6 @@ TEST(Persistence, DiscardBadStateMovesTheFileAsideAndStartsFresh)
     EXPECT_NO_THROW(decode_checkpoint(read_text(file), file.string()));
 }
 
-/// Another scene than the still one: gravity, a smaller box, another dt and integrator.
-json drop_scene()
-{
-    return {{"name", "drop"},
-            {"dt", 0.01},
-            {"integrator", "velocity_verlet"},
-            {"forces", {{"uniform_field", {{"g", {0, 0, -9.81}}}}}},
-            {"box", {{"min", {-2, -2, 0}}, {"max", {2, 2, 4}}}},
-            {"bodies", json::array({{{"position", {0, 0, 3}}, {"radius", 0.2}, {"mass", 1}},
-                                    {{"position", {1, 0, 3}}, {"radius", 0.2}, {"mass", 1}}})}};
-}
-
 constexpr char const* admin_token = "persistence-test-admin-token";
 
 /// Room "default" running the still scene (written to `dir`), checkpointed to `dir`.
@@ -552,6 +541,20 @@ fs::path log_file(std::string const& name)
     return fs::path(testing::TempDir()) / ("kugel_persistence_test_" + name + ".log");
 }
 
+/// Waits up to 30 s for the checkpoint at `file` to be one that `wanted` accepts. A checkpoint
+/// is renamed into place whole, so the file read is never half written.
+template <class Wanted>
+bool wait_for_checkpoint(fs::path const& file, Wanted const& wanted)
+{
+    auto const deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
+    while (std::chrono::steady_clock::now() < deadline) {
+        if (fs::exists(file) && wanted(decode_checkpoint(read_text(file), file.string())))
+            return true;
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+    }
+    return false;
+}
+
 TEST(PersistenceProcess, SigkillAfterACheckpointRestartsWithThatCheckpointsWorld)
 {
     fs::path const dir = fresh_dir("sigkill");
@@ -567,16 +570,9 @@ TEST(PersistenceProcess, SigkillAfterACheckpointRestartsWithThatCheckpointsWorld
         c.send(spawn_at(1, {1.0 / 3.0, -2.5, 0.1 + 0.2}));
         spawned = ack_of(c, 1);
         // Wait for a checkpoint that holds the body, then kill the server without warning.
-        auto const deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-        for (;;) {
-            ASSERT_LT(std::chrono::steady_clock::now(), deadline) << p.log();
-            if (fs::exists(file)) { // renamed into place whole: never half written
-                checkpoint const c2 = decode_checkpoint(read_text(file), file.string());
-                if (c2.bodies.size() == 2 && c2.bodies[1].wire_id == spawned)
-                    break;
-            }
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        }
+        ASSERT_TRUE(wait_for_checkpoint(file, [&](checkpoint const& c2) {
+            return c2.bodies.size() == 2 && c2.bodies[1].wire_id == spawned;
+        })) << p.log();
         p.kill();
         killed_at = read_text(file);
     }
@@ -643,16 +639,9 @@ TEST(PersistenceProcess, SigkillWhileALoadedSceneRunsRestartsInThatScene)
         c.send(spawn_at(2, {-1.0, 1.0, 1.0 / 3.0}));
         spawned = ack_of(c, 2);
         // The periodic checkpoints go on in the loaded scene: wait for one with the body.
-        auto const deadline = std::chrono::steady_clock::now() + std::chrono::seconds(30);
-        for (;;) {
-            ASSERT_LT(std::chrono::steady_clock::now(), deadline) << p.log();
-            if (fs::exists(file)) {
-                checkpoint const c2 = decode_checkpoint(read_text(file), file.string());
-                if (c2.loaded_scene && c2.bodies.size() == 3 && c2.bodies[2].wire_id == spawned)
-                    break;
-            }
-            std::this_thread::sleep_for(std::chrono::milliseconds(20));
-        }
+        ASSERT_TRUE(wait_for_checkpoint(file, [&](checkpoint const& c2) {
+            return c2.loaded_scene && c2.bodies.size() == 3 && c2.bodies[2].wire_id == spawned;
+        })) << p.log();
         p.kill();
         killed_at = read_text(file);
     }

@@ -22,6 +22,19 @@ inline nlohmann::json still_scene()
             {"bodies", nlohmann::json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
 }
 
+/// A scene that differs from the still scene in every way a welcome shows: gravity, a
+/// smaller box, another dt and integrator, two bodies.
+inline nlohmann::json drop_scene()
+{
+    return {{"name", "drop"},
+            {"dt", 0.01},
+            {"integrator", "velocity_verlet"},
+            {"forces", {{"uniform_field", {{"g", {0, 0, -9.81}}}}}},
+            {"box", {{"min", {-2, -2, 0}}, {"max", {2, 2, 4}}}},
+            {"bodies", nlohmann::json::array({{{"position", {0, 0, 3}}, {"radius", 0.2}, {"mass", 1}},
+                                              {{"position", {1, 0, 3}}, {"radius", 0.2}, {"mass", 1}}})}};
+}
+
 /// Writes `scene` to `file` (indented JSON) and returns the path.
 inline std::filesystem::path write_scene(std::filesystem::path const& file, nlohmann::json const& scene)
 {
