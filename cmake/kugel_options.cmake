@@ -8,6 +8,11 @@ target_compile_options(kugel_options INTERFACE
 if(KUGEL_WERROR)
   target_compile_options(kugel_options INTERFACE -Werror)
 endif()
+if(KUGEL_NO_SSE2)
+  # The dev preset builds the scalar versions of the engine's few SSE2 comparisons, so that
+  # its tests (the golden hashes among them) hold them to the same results as release's.
+  target_compile_definitions(kugel_options INTERFACE KUGEL_NO_SSE2)
+endif()
 if(KUGEL_SANITIZE OR KUGEL_FUZZ)
   target_compile_options(kugel_options INTERFACE
     -fsanitize=address,undefined -fno-sanitize-recover=all -fno-omit-frame-pointer)

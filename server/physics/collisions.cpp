@@ -1,16 +1,13 @@
 #include "collisions.hpp"
 
 #include "collision_rules.hpp"
+#include "sse2.hpp"
 #include "time_of_impact.hpp"
 
 #include <algorithm>
 #include <array>
 #include <limits>
 #include <utility>
-
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 namespace kugel::physics {
 
@@ -63,7 +60,7 @@ public:
     /// the common case, tested without a branch per wall.
     bool clear(vec3 const& x, double r) const
     {
-#if defined(__SSE2__)
+#if defined(KUGEL_SSE2)
         // The same six comparisons, two at a time (every wall pass asks this of every sphere).
         __m128d const reach = _mm_set1_pd(r);
         __m128d const xy = _mm_loadu_pd(x.data());

@@ -1,6 +1,7 @@
 #include "sphere_grid.hpp"
 
 #include "aabb.hpp"
+#include "sse2.hpp"
 
 #include <algorithm>
 #include <array>
@@ -10,9 +11,6 @@
 #include <optional>
 #include <utility>
 
-#if defined(__SSE2__)
-#include <emmintrin.h>
-#endif
 
 namespace kugel::physics {
 
@@ -375,7 +373,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
         // lo <= hi); in z, lo_a <= hi_b and −hi_a <= −lo_b (exact negations). Two at a time
         // where the processor can: the same comparisons of the same numbers.
         filed_box const& a = boxes_[p];
-#if defined(__SSE2__)
+#if defined(KUGEL_SSE2)
         __m128d const a_lo_xy = _mm_loadu_pd(&a.lo_x), a_hi_xy = _mm_loadu_pd(&a.hi_x);
         __m128d const a_z = _mm_set_pd(-a.hi_z, -a.minus_lo_z);
         auto const meets = [&](filed_box const& b) {
@@ -384,7 +382,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
             return _mm_movemask_pd(_mm_and_pd(xy, _mm_cmple_pd(a_z, _mm_loadu_pd(&b.hi_z)))) == 3;
         };
 #else
-        auto const meets = [&](filed_box const& b) {
+        auto const meets = [&](filed_box const& b) -> bool {
             return (a.lo_x <= b.hi_x) & (b.lo_x <= a.hi_x) & (a.lo_y <= b.hi_y) & (b.lo_y <= a.hi_y) &
                    (-a.minus_lo_z <= b.hi_z) & (-a.hi_z <= b.minus_lo_z);
         };
