@@ -157,13 +157,14 @@ public:
 
     void take(protocol::welcome welcome, clock::time_point now)
     {
-        if (welcome_)
-            return; // welcome() hands out a reference: the first one stays
+        // The newest welcome holds (after a hello that made this an admin, after an admin
+        // loaded another scene); the connection opened with the first.
         double const ratio = welcome.tick_rate / welcome.snapshot_rate;
         expected_tick_gap_ =
             std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(ratio - 1e-9)));
+        if (!welcome_)
+            stats_.opened = now;
         welcome_ = std::move(welcome);
-        stats_.opened = now;
     }
 
     /// The tick of a snapshot's text, found by a search rather than a parse (the server writes
@@ -382,10 +383,10 @@ public:
                               : info.reason;
     }
 
-    protocol::welcome const& welcome() const
+    protocol::welcome welcome() const
     {
         std::lock_guard lock(mutex_);
-        return *welcome_; // set before the constructor returned, never changed after
+        return *welcome_; // set before the constructor returned; a copy, as a newer may come
     }
 
     /// Counts a message about to be sent; throws when the connection cannot take it.
@@ -644,7 +645,7 @@ connection::~connection()
     }
 }
 
-protocol::welcome const& connection::welcome() const
+protocol::welcome connection::welcome() const
 {
     return state_->live->welcome();
 }

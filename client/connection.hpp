@@ -143,8 +143,10 @@ public:
     connection(connection const&) = delete;
     connection& operator=(connection const&) = delete;
 
-    /// The server's welcome: room, tick rate, dt, the scene's geometry, the limits.
-    protocol::welcome const& welcome() const;
+    /// The server's newest welcome (a new one comes after a hello that makes this connection
+    /// an admin, and after an admin loads another scene): room, tick rate, dt, the scene's
+    /// geometry, the limits. A copy, since the connection's thread may replace it.
+    protocol::welcome welcome() const;
 
     /// Sends a command with a fresh ref (1, 2, 3, ...: whatever ref it carries is replaced)
     /// and returns that ref. Throws connection_error once the connection has ended.

@@ -94,7 +94,7 @@ private:
     /// near the middle of the scene.
     protocol::spawn spawn()
     {
-        protocol::welcome const& w = link_.welcome();
+        protocol::welcome const w = link_.welcome();
         protocol::spawn s;
         s.body.position = w.scene.bounds.centre;
         protocol::vec3 const offset = direction(0.25 * w.scene.bounds.radius);

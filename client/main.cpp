@@ -46,7 +46,7 @@ int watch(std::string const& url, bool as_json, std::uint64_t count, double time
     options.name = "kugel-client watch";
     options.connect_timeout = to_ms(timeout);
     connection link(url, options);
-    auto const& w = link.welcome();
+    auto const w = link.welcome();
     std::cerr << "room '" << w.room << "', scene '" << w.scene.name << "': " << w.tick_rate
               << " ticks/s, " << w.snapshot_rate << " snapshots/s, dt " << w.dt << " s\n";
     stop_on_signals();

@@ -61,6 +61,34 @@ TEST(Connection, ConnectsAndHasTheWelcome)
     EXPECT_NE(c.next_snapshot(10s), nullptr);
 }
 
+// The newest welcome holds (PROTOCOL.md): a hello that makes the connection an admin brings
+// one saying so, and an admin's load_scene one with the new scene; welcome() has each.
+TEST(Connection, TheNewestWelcomeHolds)
+{
+    server::server_options o;
+    o.admin_token = "a-token-for-this-test";
+    running_server s(std::move(o));
+    connection c(s.url("still"));
+    EXPECT_FALSE(c.welcome().admin);
+    std::string const still = c.welcome().scene.name;
+    c.send(protocol::hello{.protocol = {}, .name = "admin", .admin_token = "a-token-for-this-test"});
+    auto const admin_by = std::chrono::steady_clock::now() + 10s;
+    while (!c.welcome().admin && std::chrono::steady_clock::now() < admin_by)
+        std::this_thread::sleep_for(10ms);
+    ASSERT_TRUE(c.welcome().admin);
+
+    protocol::load_scene load;
+    load.scene.text = R"({"name": "other", "dt": 0.03125, "box": {"min": [-1, -1, -1], "max": [1, 1, 1]}})";
+    auto const ack = c.await_reply(c.send(load), 10s);
+    ASSERT_TRUE(ack && std::holds_alternative<protocol::ack>(*ack));
+    auto const loaded_by = std::chrono::steady_clock::now() + 10s;
+    while (c.welcome().scene.name == still && std::chrono::steady_clock::now() < loaded_by)
+        std::this_thread::sleep_for(10ms);
+    EXPECT_EQ(c.welcome().scene.name, "other");
+    EXPECT_EQ(c.welcome().dt, 0.03125);
+    EXPECT_TRUE(c.welcome().admin);
+}
+
 TEST(Connection, SendGivesFreshRefsAndAwaitReplyTheirAnswers)
 {
     running_server s;
