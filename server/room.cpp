@@ -264,10 +264,12 @@ void room::on_tick(beast::error_code ec)
     auto const started = clock::now();
     lateness_.record(started - next_tick_at_, period_);    // against its due time
     apply_commands(std::exchange(pending_commands_, {})); // 1. in arrival order
+    auto const applied = clock::now();
     step_world();                                          // 2. physics
+    auto const stepped = clock::now();
     if (snapshot_due())
         send_snapshot();                   // 3. copied here, encoded once off the tick
-    record(clock::now() - started);        // 4. cost
+    record({applied - started, stepped - applied, clock::now() - stepped}); // 4. cost
     schedule_next_tick();
 }
 
@@ -604,22 +606,28 @@ void room::send_snapshot()
     });
 }
 
-void room::record(clock::duration cost)
+void room::record(tick_phases const& phases)
 {
+    clock::duration const cost = phases.total();
     tick_durations_.record(cost);
     ++report_ticks_;
     report_cost_ += cost;
-    report_worst_ = std::max(report_worst_, cost);
+    if (cost > report_worst_.total())
+        report_worst_ = phases;
     auto const now = clock::now();
     if (now - report_started_ < std::chrono::seconds(5))
         return;
+    // The worst tick's steps say which of them to look at when a tick runs long.
     using ms = std::chrono::duration<double, std::milli>;
     double const seconds = std::chrono::duration<double>(now - report_started_).count();
-    spdlog::info("room '{}': {} ticks in {:.1f} s, tick {:.2f} ms mean / {:.2f} ms worst, "
-                 "{} bodies, {} clients, {:.0f} snapshot bytes/s, {} late ticks in all",
+    spdlog::info("room '{}': {} ticks in {:.1f} s, tick {:.2f} ms mean / {:.2f} ms worst (commands "
+                 "{:.2f}, step {:.2f}, snapshot copy {:.2f} ms), {} bodies, {} clients, {:.0f} "
+                 "snapshot bytes/s, {} late ticks in all",
                  name_, report_ticks_, seconds,
                  ms(report_cost_).count() / static_cast<double>(report_ticks_),
-                 ms(report_worst_).count(), world_.bodies().size(), sessions_.size(),
+                 ms(report_worst_.total()).count(), ms(report_worst_.commands).count(),
+                 ms(report_worst_.step).count(), ms(report_worst_.snapshot).count(),
+                 world_.bodies().size(), sessions_.size(),
                  static_cast<double>(report_bytes_.exchange(0)) / seconds,
                  counters_.late_ticks.load());
     report_started_ = now;

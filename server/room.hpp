@@ -139,7 +139,15 @@ private:
     /// Copies a snapshot for the sessions in the room and has it encoded and sent off the
     /// room's strand (on `background`); none when nobody listens.
     void send_snapshot();
-    void record(clock::duration cost);
+    /// What one tick spent on each of its steps.
+    struct tick_phases
+    {
+        clock::duration commands{}; ///< applying the commands
+        clock::duration step{};     ///< world.step
+        clock::duration snapshot{}; ///< copying a due snapshot for the encoder
+        clock::duration total() const { return commands + step + snapshot; }
+    };
+    void record(tick_phases const& phases);
     void schedule_next_tick();
     void schedule_next_checkpoint();
     void on_checkpoint_timer(beast::error_code ec);
@@ -210,7 +218,7 @@ private:
     clock::time_point report_started_;
     std::uint64_t report_ticks_ = 0;
     clock::duration report_cost_{};
-    clock::duration report_worst_{};
+    tick_phases report_worst_{}; ///< the costliest tick since the last log line
     std::atomic<std::uint64_t> report_bytes_{0}; ///< snapshot bytes, added by the encoder
     clock::time_point last_late_warning_{};
     bool step_failed_ = false; ///< the world cannot step (a singular force); logged once
