@@ -10,6 +10,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <ctime>
 
 namespace kugel::server {
 
@@ -64,6 +65,14 @@ void refuse(traffic_counters& traffic, websocket_session& to, std::uint64_t ref,
 }
 
 std::string describe(protocol::vec3 const& v) { return fmt::format("[{}, {}, {}]", v[0], v[1], v[2]); }
+
+/// The processor time the calling thread has used.
+std::chrono::nanoseconds thread_processor_time()
+{
+    timespec t{};
+    clock_gettime(CLOCK_THREAD_CPUTIME_ID, &t);
+    return std::chrono::seconds(t.tv_sec) + std::chrono::nanoseconds(t.tv_nsec);
+}
 
 } // namespace
 
@@ -262,6 +271,7 @@ void room::on_tick(beast::error_code ec)
     if (ec || !running_)
         return;
     auto const started = clock::now();
+    auto const started_on_processor = thread_processor_time();
     lateness_.record(started - next_tick_at_, period_);    // against its due time
     apply_commands(std::exchange(pending_commands_, {})); // 1. in arrival order
     auto const applied = clock::now();
@@ -269,7 +279,8 @@ void room::on_tick(beast::error_code ec)
     auto const stepped = clock::now();
     if (snapshot_due())
         send_snapshot();                   // 3. copied here, encoded once off the tick
-    record({applied - started, stepped - applied, clock::now() - stepped}); // 4. cost
+    record({applied - started, stepped - applied, clock::now() - stepped, // 4. cost
+            thread_processor_time() - started_on_processor});
     schedule_next_tick();
 }
 
@@ -621,12 +632,13 @@ void room::record(tick_phases const& phases)
     using ms = std::chrono::duration<double, std::milli>;
     double const seconds = std::chrono::duration<double>(now - report_started_).count();
     spdlog::info("room '{}': {} ticks in {:.1f} s, tick {:.2f} ms mean / {:.2f} ms worst (commands "
-                 "{:.2f}, step {:.2f}, snapshot copy {:.2f} ms), {} bodies, {} clients, {:.0f} "
-                 "snapshot bytes/s, {} late ticks in all",
+                 "{:.2f}, step {:.2f}, snapshot copy {:.2f} ms; on the processor {:.2f} ms), {} "
+                 "bodies, {} clients, {:.0f} snapshot bytes/s, {} late ticks in all",
                  name_, report_ticks_, seconds,
                  ms(report_cost_).count() / static_cast<double>(report_ticks_),
                  ms(report_worst_.total()).count(), ms(report_worst_.commands).count(),
                  ms(report_worst_.step).count(), ms(report_worst_.snapshot).count(),
+                 ms(report_worst_.on_processor).count(),
                  world_.bodies().size(), sessions_.size(),
                  static_cast<double>(report_bytes_.exchange(0)) / seconds,
                  counters_.late_ticks.load());

@@ -145,6 +145,9 @@ private:
         clock::duration commands{}; ///< applying the commands
         clock::duration step{};     ///< world.step
         clock::duration snapshot{}; ///< copying a due snapshot for the encoder
+        /// the room's thread's processor time over the three: far below their sum, the thread
+        /// waited for a core (other threads had it) rather than worked
+        clock::duration on_processor{};
         clock::duration total() const { return commands + step + snapshot; }
     };
     void record(tick_phases const& phases);
