@@ -114,22 +114,32 @@ void note_moved(std::span<std::uint8_t> was_moved, std::vector<std::uint32_t>& m
         moved.push_back(i);
 }
 
-/// Pushes a sphere (radius r, inverse mass 1/m) at x out of every wall it is inside and
-/// removes its velocity v into that wall.
-void clamp_to_walls(wall_set const& walls, vec3& x, vec3& v, double r, double inverse_mass)
+/// Pushes a sphere (radius r, inverse mass 1/m) at x out of every wall it is inside; at each
+/// such wall, meet(wall) answers for its velocity.
+template <class Meet>
+void push_out_of_walls(wall_set const& walls, vec3& x, double r, double inverse_mass, Meet const& meet)
 {
     if (r <= 0.0 || inverse_mass == 0.0 || walls.clear(x, r))
         return;
     for (wall const& w : walls.all) {
-        vec3 const& n = w.surface.normal;
-        double const depth = w.surface.offset + r - n.dot(x);
+        double const depth = w.surface.offset + r - w.surface.normal.dot(x);
         if (depth <= 0.0)
             continue;
-        x += depth * n;
+        x += depth * w.surface.normal;
+        meet(w);
+    }
+}
+
+/// Pushes a sphere out of every wall it is inside and removes its velocity v into that wall
+/// (continuous mode's guard against rounding).
+void clamp_to_walls(wall_set const& walls, vec3& x, vec3& v, double r, double inverse_mass)
+{
+    push_out_of_walls(walls, x, r, inverse_mass, [&](wall const& w) {
+        vec3 const& n = w.surface.normal;
         double const vn = v.dot(n);
         if (vn < 0.0)
             v -= vn * n;
-    }
+    });
 }
 
 void clamp_body_to_walls(wall_set const& walls, collision_bodies const& b, std::size_t i)
@@ -155,26 +165,18 @@ bool meet_wall(wall const& w, vec3& v, vec3 const& a, collision_settings const& 
     return true;
 }
 
-/// clamp_to_walls for the discrete step's responses: the sphere is pushed out of every wall
-/// it is inside and meets it (meet_wall) instead of losing its speed into it.
-void push_out_of_walls(wall_set const& walls, vec3& x, vec3& v, double r, double inverse_mass,
-                       vec3 const& a, collision_settings const& settings, double h)
+/// The discrete step's clamp: pushed out of every wall it is inside, the sphere meets it
+/// (meet_wall) instead of losing its speed into it.
+void push_out_and_meet_walls(wall_set const& walls, vec3& x, vec3& v, double r, double inverse_mass,
+                             vec3 const& a, collision_settings const& settings, double h)
 {
-    if (r <= 0.0 || inverse_mass == 0.0 || walls.clear(x, r))
-        return;
-    for (wall const& w : walls.all) {
-        double const depth = w.surface.offset + r - w.surface.normal.dot(x);
-        if (depth <= 0.0)
-            continue;
-        x += depth * w.surface.normal;
-        meet_wall(w, v, a, settings, h);
-    }
+    push_out_of_walls(walls, x, r, inverse_mass, [&](wall const& w) { meet_wall(w, v, a, settings, h); });
 }
 
 void push_body_out_of_walls(wall_set const& walls, collision_bodies const& b, std::size_t i,
                             std::span<vec3 const> free_a, collision_settings const& settings, double h)
 {
-    push_out_of_walls(walls, b.x[i], b.v[i], b.radius[i], b.inverse_mass[i], free_a[i], settings, h);
+    push_out_and_meet_walls(walls, b.x[i], b.v[i], b.radius[i], b.inverse_mass[i], free_a[i], settings, h);
 }
 
 /// Discrete walls: a sphere found inside a wall at the end of the step is taken back to the
@@ -455,8 +457,8 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
         each_slab([&](contact_slab& slab) {
             for (std::uint32_t k : slab.touched) {
                 std::uint32_t const i = slot_of(k);
-                push_out_of_walls(walls, packed(k).x, b.v[i], packed(k).radius, packed(k).inverse_mass,
-                                  free_a[i], settings, h);
+                push_out_and_meet_walls(walls, packed(k).x, b.v[i], packed(k).radius,
+                                        packed(k).inverse_mass, free_a[i], settings, h);
                 if (std::exchange(ws.pushed[k], std::uint8_t{1}) == 0)
                     slab.pushed.push_back(k);
                 note_moved(ws.was_moved, slab.moved, i);
