@@ -18,6 +18,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <functional>
 #include <fstream>
 #include <set>
 #include <sstream>
@@ -474,58 +475,57 @@ TEST(Persistence, ATamperedLoadedSceneIsRefusedAndLeftUntouched)
     json const good = json::parse(read_text(loaded_scene_checkpoint(dir, spawned)));
     server_options const o = still_room(dir);
     auto const refused = [&](json const& bad) { return refusal(dir, bad.dump(), o); };
-    auto const contains = [](std::string const& message, std::string const& part) {
-        return message.find(part) != std::string::npos;
+
+    // Each way of tampering with the file, and what its refusal must say.
+    struct tampering
+    {
+        std::string what;
+        std::function<void(json&)> change;
+        std::vector<std::string> says;
     };
-
-    // The scene's text edited (a radius), or its fingerprint: they no longer agree.
-    json edited_text = good;
-    std::string& text = edited_text["loaded_scene"]["text"].get_ref<std::string&>();
-    std::size_t const radius = text.find("0.2");
-    ASSERT_NE(radius, std::string::npos) << text;
-    text.replace(radius, 3, "0.3");
-    std::string message = refused(edited_text);
-    EXPECT_TRUE(contains(message, "/loaded_scene: its text's fingerprint is")) << message;
-    EXPECT_TRUE(contains(message, "changed in the file, or the file is corrupt")) << message;
-
-    json edited_fingerprint = good;
-    edited_fingerprint["loaded_scene"]["fingerprint"] = scene_fingerprint("{}");
-    message = refused(edited_fingerprint);
-    EXPECT_TRUE(contains(message, "/loaded_scene: its text's fingerprint is")) << message;
-
-    // Both changed to agree, on a scene the scene loader refuses: its message, in the file.
-    json bad_scene = good;
-    json negative = drop_scene();
+    json negative = drop_scene(); // a scene the scene loader refuses
     negative["bodies"][0]["radius"] = -1;
-    bad_scene["loaded_scene"]["text"] = negative.dump();
-    bad_scene["loaded_scene"]["fingerprint"] = scene_fingerprint(negative.dump());
-    message = refused(bad_scene);
-    EXPECT_TRUE(contains(message, "/loaded_scene/text: /bodies/0/radius")) << message;
-
-    json renamed = good;
-    renamed["loaded_scene"]["name"] = "still";
-    message = refused(renamed);
-    EXPECT_TRUE(contains(message, "/loaded_scene/name")) << message;
-
-    json not_text = good;
-    not_text["loaded_scene"]["text"] = drop_scene();
-    message = refused(not_text);
-    EXPECT_TRUE(contains(message, "/loaded_scene/text: must be a string")) << message;
-
-    json no_fingerprint = good;
-    no_fingerprint["loaded_scene"].erase("fingerprint");
-    message = refused(no_fingerprint);
-    EXPECT_TRUE(contains(message, "/loaded_scene/fingerprint: missing")) << message;
-
-    // The room's own scene file is still checked: another file refuses it too.
-    json other_own_scene = good;
-    other_own_scene["scene"]["fingerprint"] = scene_fingerprint("{\"name\": \"still\"}");
-    message = refused(other_own_scene);
-    EXPECT_TRUE(contains(message, "another scene, or the scene file changed")) << message;
+    std::vector<tampering> const cases{
+        {"the scene's text edited (a radius): it no longer agrees with its fingerprint",
+         [](json& c) {
+             std::string& text = c["loaded_scene"]["text"].get_ref<std::string&>();
+             std::size_t const radius = text.find("0.2");
+             ASSERT_NE(radius, std::string::npos) << text;
+             text.replace(radius, 3, "0.3");
+         },
+         {"/loaded_scene: its text's fingerprint is", "changed in the file, or the file is corrupt"}},
+        {"its fingerprint edited",
+         [](json& c) { c["loaded_scene"]["fingerprint"] = scene_fingerprint("{}"); },
+         {"/loaded_scene: its text's fingerprint is"}},
+        {"both changed to agree, on a scene the loader refuses: its message, in the file",
+         [&](json& c) {
+             c["loaded_scene"]["text"] = negative.dump();
+             c["loaded_scene"]["fingerprint"] = scene_fingerprint(negative.dump());
+         },
+         {"/loaded_scene/text: /bodies/0/radius"}},
+        {"renamed", [](json& c) { c["loaded_scene"]["name"] = "still"; }, {"/loaded_scene/name"}},
+        {"not text", [](json& c) { c["loaded_scene"]["text"] = drop_scene(); },
+         {"/loaded_scene/text: must be a string"}},
+        {"no fingerprint", [](json& c) { c["loaded_scene"].erase("fingerprint"); },
+         {"/loaded_scene/fingerprint: missing"}},
+        {"the room's own scene file is still checked: another file refuses it too",
+         [](json& c) { c["scene"]["fingerprint"] = scene_fingerprint("{\"name\": \"still\"}"); },
+         {"another scene, or the scene file changed"}},
+    };
+    for (tampering const& t : cases) {
+        SCOPED_TRACE(t.what);
+        json bad = good;
+        t.change(bad);
+        std::string const message = refused(bad);
+        for (std::string const& part : t.says)
+            EXPECT_NE(message.find(part), std::string::npos) << message;
+    }
 
     // --discard-bad-state moves it aside and starts the room from its own scene.
     server_options discard = o;
     discard.discard_bad_state = true;
+    json edited_text = good;
+    cases.front().change(edited_text); // the scene's text edited
     write_text(checkpoint_path(dir, "default"), edited_text.dump());
     test_support::in_process_server s(discard);
     ws_client c(s.port(), "/ws");
