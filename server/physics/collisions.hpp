@@ -52,7 +52,7 @@ struct collision_settings
     /// of bouncing again. Unset: twice the normal speed the body's own acceleration adds in
     /// one step (2·|Δv·n|), which is zero without forces, so a gas stays exactly elastic.
     std::optional<double> rest_speed;
-    int velocity_iterations = 4; ///< discrete mode: momentum-exchange passes over contacts
+    int velocity_iterations = 4; ///< discrete mode: momentum-exchange passes over contacts at most
     int position_iterations = 4; ///< discrete mode: separation passes over overlapping pairs
     /// Continuous mode: events handled per step at most; past it the step finishes in
     /// discrete mode and the step is counted in collision_stats::capped_steps.
