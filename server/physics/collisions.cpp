@@ -107,12 +107,15 @@ private:
     std::vector<wall> oblique_;         ///< every other wall
 };
 
-/// Lists sphere i in `moved` unless a discrete response moved it before in this step.
-void note_moved(std::span<std::uint8_t> was_moved, std::vector<std::uint32_t>& moved, std::uint32_t i)
+/// Each body's acceleration over the step from free motion alone, by body slot: none after a
+/// drift, when nothing was written.
+struct free_accelerations
 {
-    if (std::exchange(was_moved[i], std::uint8_t{1}) == 0)
-        moved.push_back(i);
-}
+    std::span<vec3 const> a; ///< empty when no body accelerated
+
+    vec3 operator[](std::size_t i) const { return a.empty() ? vec3::Zero() : a[i]; }
+    bool any() const { return !a.empty(); }
+};
 
 /// Pushes a sphere (radius r, inverse mass 1/m) at x out of every wall it is inside; at each
 /// such wall, meet(wall) answers for its velocity.
@@ -174,7 +177,7 @@ void push_out_and_meet_walls(wall_set const& walls, vec3& x, vec3& v, double r, 
 }
 
 void push_body_out_of_walls(wall_set const& walls, collision_bodies const& b, std::size_t i,
-                            std::span<vec3 const> free_a, collision_settings const& settings, double h)
+                            free_accelerations free_a, collision_settings const& settings, double h)
 {
     push_out_and_meet_walls(walls, b.x[i], b.v[i], b.radius[i], b.inverse_mass[i], free_a[i], settings, h);
 }
@@ -182,10 +185,11 @@ void push_body_out_of_walls(wall_set const& walls, collision_bodies const& b, st
 /// Discrete walls: a sphere found inside a wall at the end of the step is taken back to the
 /// time it crossed, found by the lecture's linear interpolation between tᵢ and tᵢ₊₁, bounces
 /// there, and finishes the step on its new path. Up to four walls per step (a corner).
-/// Bodies [begin, end), each on its own; also notes each one's free acceleration.
+/// Bodies [begin, end), each on its own; also notes each one's free acceleration (unless free
+/// motion was a drift: then there is none).
 void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,
-                            std::size_t begin, std::size_t end, std::span<std::uint8_t> was_moved,
+                            std::size_t begin, std::size_t end,
                             wall_chunk& out)
 {
     out.moved.clear();
@@ -193,17 +197,18 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
     out.accelerated = false;
     for (std::size_t k = begin; k < end; ++k) {
         auto const i = static_cast<std::uint32_t>(k);
-        // Without forces the change is zero, and then so is the quotient (0/h keeps the sign
-        // of zero): the division, slow beside everything else here, is skipped.
-        vec3 const change = b.v[i] - b.v0[i];
-        bool const still = (change.array() == 0.0).all();
-        free_a[i] = still ? change : vec3(change / h);
-        out.accelerated |= !still;
-        was_moved[i] = 0;
+        if (b.accelerated) {
+            // A body no force moved has no change, and then the quotient is zero too (0/h
+            // keeps the sign of zero): the division, slow beside everything else here, is skipped.
+            vec3 const change = b.v[i] - b.v0[i];
+            bool const still = (change.array() == 0.0).all();
+            free_a[i] = still ? change : vec3(change / h);
+            out.accelerated |= !still;
+        }
         double const r = b.radius[i];
         if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))
             continue;
-        body_path path{b.x0[i], b.v0[i], free_a[i], 0.0};
+        body_path path{b.x0[i], b.v0[i], b.accelerated ? free_a[i] : vec3::Zero(), 0.0};
         vec3 end_position = b.x[i];
         bool bounced = false;
         for (int bounce = 0; bounce < 4; ++bounce) {
@@ -231,7 +236,7 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
         if (bounced) {
             b.x[i] = end_position;
             b.v[i] = path.velocity_at(h);
-            note_moved(was_moved, out.moved, i);
+            out.moved.push_back(i);
         }
     }
 }
@@ -240,7 +245,7 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
 /// bounces by the wall rule.
 void resolve_obstacles_discrete(collision_settings const& settings, wall_set const& walls,
                                 std::span<obstacle const> obstacles, collision_bodies const& b,
-                                double h, std::span<vec3 const> free_a, collision_workspace& ws,
+                                double h, free_accelerations free_a, collision_workspace& ws,
                                 collision_stats& stats)
 {
     for (obstacle const& o : obstacles) {
@@ -259,7 +264,7 @@ void resolve_obstacles_discrete(collision_settings const& settings, wall_set con
             b.x[i] = path.x;
             b.v[i] = path.v;
             push_body_out_of_walls(walls, b, i, free_a, settings, h);
-            note_moved(ws.was_moved, ws.moved, i);
+            ws.moved.push_back(i);
         }
     }
 }
@@ -267,16 +272,16 @@ void resolve_obstacles_discrete(collision_settings const& settings, wall_set con
 /// A sphere touching a wall (to a relative 1e-9 of its radius) and moving into it meets it
 /// (meet_wall): a stack's weight, pressing slower than the rest threshold, is carried by the
 /// wall. Returns whether its velocity changed.
-bool meet_touched_walls(wall_set const& walls, collision_bodies const& b, std::size_t i,
-                        std::span<vec3 const> free_a, collision_settings const& settings, double h)
+bool meet_touched_walls(wall_set const& walls, packed_sphere const& s, vec3& v, vec3 const& a,
+                        collision_settings const& settings, double h)
 {
-    double const reach = b.radius[i] * (1.0 + 1e-9);
-    if (walls.beyond(b.x[i], reach))
+    double const reach = s.radius * (1.0 + 1e-9);
+    if (walls.beyond(s.x, reach))
         return false;
     bool changed = false;
     for (wall const& w : walls.all)
-        if (w.surface.normal.dot(b.x[i]) <= w.surface.offset + reach)
-            changed |= meet_wall(w, b.v[i], free_a[i], settings, h);
+        if (w.surface.normal.dot(s.x) <= w.surface.offset + reach)
+            changed |= meet_wall(w, v, a, settings, h);
     return changed;
 }
 
@@ -345,7 +350,7 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
 /// one slab in a pass is marked, so that no other slab lists it again. The position passes
 /// move the packed copies, which go back to the bodies at the end.
 void resolve_pairs_discrete(collision_settings const& settings, wall_set const& walls,
-                            collision_bodies const& b, double h, std::span<vec3 const> free_a,
+                            collision_bodies const& b, double h, free_accelerations free_a,
                             collision_workspace& ws, collision_stats& stats, parallel_for* loops)
 {
     std::size_t const slabs = find_near_pairs(settings, b, ws, loops);
@@ -369,26 +374,36 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
             list.push_back(k);
     };
 
-    // The spheres in contacts that touch a wall: the velocity passes stop them at it. Positions
-    // do not change in those passes, so the list holds for all of them.
+    // The velocity passes work on copies of the contacts' spheres' velocities (and free
+    // accelerations) in cell order, taken once from the body slots and put back after: the
+    // passes then read memory nearly in sequence, where reading by slot waited on a cache miss
+    // for most contacts in every pass. The spheres in contacts that touch a wall are listed:
+    // the velocity passes stop them at it. Positions do not change in those passes, so the list
+    // holds for all of them.
+    auto& v = ws.velocity_by_rank;
+    auto& a = ws.acceleration_by_rank;
+    v.resize(spheres);
+    a.resize(free_a.any() ? spheres : 0);
     by_parity([&](contact_slab& slab) {
-        slab.touched.clear();
+        slab.copied.clear();
         slab.pushed.clear();
-        slab.moved.clear();
         slab.responses = 0;
         for (sphere_pair const& p : slab.contacts) {
-            list_once(slab.touched, p.a);
-            list_once(slab.touched, p.b);
+            list_once(slab.copied, p.a);
+            list_once(slab.copied, p.b);
         }
-        std::erase_if(slab.touched, [&](std::uint32_t k) {
-            return walls.beyond(packed(k).x, packed(k).radius * (1.0 + 1e-9));
-        });
+        slab.touched.clear();
+        for (std::uint32_t k : slab.copied) {
+            std::uint32_t const i = slot_of(k);
+            v[k] = b.v[i];
+            if (free_a.any())
+                a[k] = free_a[i];
+            if (!walls.beyond(packed(k).x, packed(k).radius * (1.0 + 1e-9)))
+                slab.touched.push_back(k);
+        }
     });
+    auto const acceleration = [&](std::uint32_t k) { return free_a.any() ? a[k] : vec3::Zero(); };
 
-    // Whether any sphere accelerated in free motion: if none did, every contact's rest
-    // threshold has no acceleration in it, and free_a is not read (random reads by slot).
-    bool const accelerated = std::any_of(ws.wall_chunks.begin(), ws.wall_chunks.end(),
-                                         [](wall_chunk const& chunk) { return chunk.accelerated; });
     auto normal_of = [&](std::uint32_t p, std::uint32_t q, double& gap) {
         vec3 const d = packed(p).x - packed(q).x;
         double const distance = d.norm();
@@ -407,32 +422,34 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
                 }
             }
             for (std::size_t k = 0; k < slab.contacts.size(); ++k) {
-                sphere_pair const& c = slab.contacts[k];
-                std::uint32_t const i = slot_of(c.a), j = slot_of(c.b);
+                auto const [i, j] = slab.contacts[k];
                 vec3 const& n = slab.normals[k];
-                double const closing = (b.v[i] - b.v[j]).dot(n);
+                double const closing = (v[i] - v[j]).dot(n);
                 if (closing >= 0.0)
                     continue;
                 double const threshold = detail::rest_threshold(
-                    settings, accelerated ? vec3(free_a[i] - free_a[j]) : vec3::Zero(), n, h);
+                    settings, free_a.any() ? vec3(a[i] - a[j]) : vec3::Zero(), n, h);
                 double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
-                auto const w = collide_spheres(b.v[i], packed(c.a).inverse_mass, b.v[j],
-                                               packed(c.b).inverse_mass, n, e);
-                b.v[i] = w.first;
-                b.v[j] = w.second;
+                auto const w = collide_spheres(v[i], packed(i).inverse_mass, v[j], packed(j).inverse_mass, n, e);
+                v[i] = w.first;
+                v[j] = w.second;
                 slab.responses += pass == 0 ? 1U : 0U;
                 slab.changed = true;
             }
         });
         each_slab([&](contact_slab& slab) {
             for (std::uint32_t k : slab.touched)
-                slab.changed |= meet_touched_walls(walls, b, slot_of(k), free_a, settings, h);
+                slab.changed |= meet_touched_walls(walls, packed(k), v[k], acceleration(k), settings, h);
         });
         // A pass that changed no velocity leaves the next one the same state: it would
         // change none either.
         if (std::none_of(ws.slabs.begin(), ws.slabs.end(), [](contact_slab const& slab) { return slab.changed; }))
             break;
     }
+    each_slab([&](contact_slab& slab) {
+        for (std::uint32_t k : slab.copied)
+            b.v[slot_of(k)] = v[k];
+    });
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
         ++stamp;
         by_parity([&](contact_slab& slab) {
@@ -461,7 +478,6 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
                                         packed(k).inverse_mass, free_a[i], settings, h);
                 if (std::exchange(ws.pushed[k], std::uint8_t{1}) == 0)
                     slab.pushed.push_back(k);
-                note_moved(ws.was_moved, slab.moved, i);
             }
         });
         if (std::all_of(ws.slabs.begin(), ws.slabs.end(),
@@ -501,32 +517,36 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     wall_set const wall_tests(walls);
     std::size_t const n = bodies.x.size();
     auto& free_a = workspace.free_acceleration;
-    free_a.resize(n);
-    workspace.was_moved.resize(n);
+    free_a.resize(bodies.accelerated ? n : 0);
     workspace.wall_chunks.resize(chunk_count(n));
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        resolve_walls_discrete(settings, wall_tests, bodies, h, free_a, begin, end, workspace.was_moved,
-                               workspace.wall_chunks[c]);
+        resolve_walls_discrete(settings, wall_tests, bodies, h, free_a, begin, end, workspace.wall_chunks[c]);
     });
     workspace.moved.clear();
     for (wall_chunk const& chunk : workspace.wall_chunks) {
         workspace.moved.insert(workspace.moved.end(), chunk.moved.begin(), chunk.moved.end());
         stats.wall_contacts += chunk.responses;
     }
-    resolve_obstacles_discrete(settings, wall_tests, obstacles, bodies, h, free_a, workspace, stats);
-    resolve_pairs_discrete(settings, wall_tests, bodies, h, free_a, workspace, stats, loops);
+    // When no body accelerated, no rest threshold has an acceleration in it, and the
+    // accelerations are not read by slot at all.
+    bool const accelerated = std::any_of(workspace.wall_chunks.begin(), workspace.wall_chunks.end(),
+                                         [](wall_chunk const& chunk) { return chunk.accelerated; });
+    free_accelerations const free_motion{accelerated ? std::span<vec3 const>(free_a) : std::span<vec3 const>()};
+    resolve_obstacles_discrete(settings, wall_tests, obstacles, bodies, h, free_motion, workspace, stats);
+    if (!obstacles.empty()) { // a sphere a wall moved may also have met a box, or two boxes
+        std::sort(workspace.moved.begin(), workspace.moved.end());
+        workspace.moved.erase(std::unique(workspace.moved.begin(), workspace.moved.end()), workspace.moved.end());
+    }
+    resolve_pairs_discrete(settings, wall_tests, bodies, h, free_motion, workspace, stats, loops);
 
-    // No sphere is left inside a wall: the spheres the response moved are clamped (the position
-    // passes also clamp as they go); every other sphere was clear of every wall when the wall
-    // pass looked at it and has not moved since, so clamping it would change nothing. (Clamping
-    // a bounced sphere before the pair passes instead of after them left stacks settling four
-    // times worse.) Each moved sphere is in one of the lists, once.
+    // No sphere is left inside a wall: the spheres walls and boxes moved are clamped here, once
+    // each, and the position passes clamp every sphere they move after each pass (the velocity
+    // passes move none); every other sphere was clear of every wall when the wall pass looked
+    // at it and has not moved since, so clamping it would change nothing. (Clamping a bounced
+    // sphere before the pair passes instead of after them left stacks settling four times
+    // worse.)
     for (std::uint32_t i : workspace.moved)
-        push_body_out_of_walls(wall_tests, bodies, i, free_a, settings, h);
-    run_loop(loops, workspace.slabs.size(), [&](std::size_t s) {
-        for (std::uint32_t i : workspace.slabs[s].moved)
-            push_body_out_of_walls(wall_tests, bodies, i, free_a, settings, h);
-    });
+        push_body_out_of_walls(wall_tests, bodies, i, free_motion, settings, h);
 }
 
 void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,

@@ -87,6 +87,9 @@ struct collision_bodies
     std::span<vec3 const> v0;
     std::span<double const> inverse_mass;
     std::span<double const> radius;
+    /// False when free motion was a drift (a scene without forces): no velocity changed, so
+    /// no body accelerated, and v0 may be v itself (read only before v is written).
+    bool accelerated = true;
 };
 
 /// Discrete mode: the sphere pairs of one slab of the sphere grid and what its passes changed.
@@ -96,9 +99,9 @@ struct contact_slab
     std::vector<sphere_pair> near;      ///< boxes overlap, in resolution order
     std::vector<sphere_pair> contacts;  ///< the near pairs that touch, in the same order
     std::vector<vec3> normals;          ///< each contact's unit normal, from b to a
+    std::vector<std::uint32_t> copied;  ///< the spheres of its contacts that this slab lists
     std::vector<std::uint32_t> touched; ///< the spheres a pass changed that this slab lists
     std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved
-    std::vector<std::uint32_t> moved;   ///< of those, the body slots no response moved before
     std::uint64_t responses = 0;        ///< sphere–sphere responses
     bool changed = false;               ///< the last velocity pass changed a velocity
 };
@@ -127,8 +130,9 @@ public:
     std::vector<std::uint32_t> ranks;   ///< discrete mode: position in cell order by body slot
     std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
     std::vector<std::uint8_t> pushed;   ///< discrete mode: 1 for a sphere a position pass moved
+    std::vector<vec3> velocity_by_rank; ///< discrete mode: contact spheres' v in cell order
+    std::vector<vec3> acceleration_by_rank; ///< discrete mode: and their free accelerations
     std::vector<std::uint32_t> moved;   ///< discrete mode: the spheres walls and boxes moved
-    std::vector<std::uint8_t> was_moved; ///< discrete mode: 1 for the spheres any response moved
     std::vector<body_path> paths;       ///< continuous mode: each body's path in this step
     std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
     std::vector<std::uint32_t> version; ///< continuous mode: bumped when a path changes

@@ -142,11 +142,10 @@ void world::keep_step_start_and_integrate(double h)
     auto const x = bodies_.positions();
     auto const v = bodies_.velocities();
     step_start_x_.resize(x.size());
-    step_start_v_.resize(v.size());
     if (forces_.empty()) {
-        // The drift, with x₀ and v₀ kept on the way: one pass over memory instead of two, on
-        // the columns' doubles in a row (a vec3 is three doubles without padding), which the
-        // compiler can do two at a time.
+        // The drift, with x₀ kept on the way: one pass over memory instead of two, on the
+        // columns' doubles in a row (a vec3 is three doubles without padding), which the
+        // compiler can do two at a time. v₀ is v: a drift changes no velocity.
         run_chunks(loops(), x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
             if (begin == end)
                 return;
@@ -157,11 +156,11 @@ void world::keep_step_start_and_integrate(double h)
                 return Eigen::Map<Eigen::ArrayXd>(column[begin].data(), 3 * static_cast<Eigen::Index>(end - begin));
             };
             writable(step_start_x_) = doubles(x);
-            writable(step_start_v_) = doubles(v);
             writable(x) += h * doubles(v);
         });
         return;
     }
+    step_start_v_.resize(v.size());
     run_chunks(loops(), x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
         std::copy(x.begin() + static_cast<std::ptrdiff_t>(begin), x.begin() + static_cast<std::ptrdiff_t>(end),
                   step_start_x_.begin() + static_cast<std::ptrdiff_t>(begin));
@@ -183,9 +182,11 @@ void world::step(double dt)
             continue;
         }
         keep_step_start_and_integrate(h);
+        bool const accelerated = !forces_.empty();
         resolve_collisions(settings_.collisions, walls_, obstacles_,
                            {bodies_.positions(), bodies_.velocities(), step_start_x_,
-                            step_start_v_, bodies_.inverse_masses(), bodies_.radii()},
+                            accelerated ? std::span<vec3 const>(step_start_v_) : bodies_.velocities(),
+                            bodies_.inverse_masses(), bodies_.radii(), accelerated},
                            h, collision_workspace_, collision_stats_, loops());
         workspace_.invalidate(); // contacts may have moved bodies
     }
