@@ -451,10 +451,16 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
             b.v[slot_of(k)] = v[k];
     });
     for (int pass = 0; pass < settings.position_iterations; ++pass) {
+        // After the first pass, a pair whose spheres neither the last pass nor this one has
+        // moved (marked before `recent`) is where it was when the last pass found it apart:
+        // it is apart again, and its spheres are not read.
+        std::uint32_t const recent = pass == 0 ? 0 : stamp;
         ++stamp;
         by_parity([&](contact_slab& slab) {
             slab.touched.clear(); // now: the spheres this pass moved
             for (sphere_pair const& c : slab.near) {
+                if (std::max(ws.mark[c.a], ws.mark[c.b]) < recent)
+                    continue;
                 packed_sphere& s = packed(c.a);
                 packed_sphere& t = packed(c.b);
                 double const reach = s.radius + t.radius;
