@@ -164,8 +164,6 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         slab_begin_.resize(slabs + 1);
         for (std::uint32_t s = 0; s <= slabs; ++s)
             slab_begin_[s] = s < slabs ? cell_begin_[slab_cell_[s]] : all.spheres;
-        boxes_.resize(all.spheres);
-        file_boxes(0, all.spheres);
         return true;
     }
 
@@ -217,10 +215,8 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     //    slab's cells, stable, which leaves the table of where each cell starts (dense), or a
     //    comparison sort (sparse). The slabs' cells and entries are disjoint, so slabs sort
     //    at the same time.
-    if (dense_) {
+    if (dense_)
         cell_begin_.resize(*cells + 1);
-        boxes_.resize(all.spheres);
-    }
     filed_.resize(all.spheres);
     run_loop(loops, slabs, [&](std::size_t s) {
         std::uint32_t const begin = slab_begin_[s], end = slab_begin_[s + 1];
@@ -235,7 +231,6 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
                 *cell = sum += *cell; // each cell's end, for now
             for (std::uint32_t k = end; k-- > begin;)
                 filed_[--cell_begin_[by_slab_[k].cell]] = by_slab_[k]; // now each cell's start
-            file_boxes(begin, end);
         } else {
             auto const first = filed_.begin() + begin, last = filed_.begin() + end;
             std::copy(by_slab_.begin() + begin, by_slab_.begin() + end, first);
@@ -322,8 +317,10 @@ void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
 // gathered from its five runs into one short list, four ranks per run in one write (the count
 // keeps only the run's own), and each candidate's pair is written whatever the test says and
 // kept by advancing the count by the result: one loop of unpredictable length per sphere
-// instead of five, and no branch on the outcome. The box test reads the boxes kept for it
-// (filed_box) two coordinates at a time: the same comparisons of the same numbers.
+// instead of five, and no branch on the outcome. The box test computes each candidate's box
+// from its filed sphere, two coordinates at a time: the same comparisons of the same numbers
+// as a table of boxes would give, without writing and reading one (at 10^6 spheres the
+// memory traffic, not the arithmetic, is what a step waits on).
 void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near,
                                    std::vector<sphere_pair>& touching) const
 {
@@ -370,27 +367,37 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
         }
 
         // overlaps() from aabb.hpp: max(lo) <= min(hi) is lo_a <= hi_b and lo_b <= hi_a (as
-        // lo <= hi); in z, lo_a <= hi_b and −hi_a <= −lo_b (exact negations). Two at a time
-        // where the processor can: the same comparisons of the same numbers.
-        filed_box const& a = boxes_[p];
+        // lo <= hi), with aabb_of_sphere's bounds x − r and x + r; in z, lo_a <= hi_b and
+        // −hi_a <= −lo_b (exact negations, and r − z is exactly −(z − r)).
+        packed_sphere const& a = filed_[p].sphere;
 #if defined(KUGEL_SSE2)
-        __m128d const a_lo_xy = _mm_loadu_pd(&a.lo_x), a_hi_xy = _mm_loadu_pd(&a.hi_x);
-        __m128d const a_z = _mm_set_pd(-a.hi_z, -a.minus_lo_z);
-        auto const meets = [&](filed_box const& b) {
-            __m128d const xy = _mm_and_pd(_mm_cmple_pd(a_lo_xy, _mm_loadu_pd(&b.hi_x)),
-                                          _mm_cmple_pd(_mm_loadu_pd(&b.lo_x), a_hi_xy));
-            return _mm_movemask_pd(_mm_and_pd(xy, _mm_cmple_pd(a_z, _mm_loadu_pd(&b.hi_z)))) == 3;
+        __m128d const a_xy = _mm_loadu_pd(a.x.data()), a_r = _mm_set1_pd(a.radius);
+        __m128d const a_lo_xy = _mm_sub_pd(a_xy, a_r), a_hi_xy = _mm_add_pd(a_xy, a_r);
+        __m128d const a_z = _mm_set_pd(-(a.x.z() + a.radius), a.x.z() - a.radius);
+        auto const meets = [&](packed_sphere const& b) {
+            __m128d const xy = _mm_loadu_pd(b.x.data());
+            __m128d const zr = _mm_loadu_pd(b.x.data() + 2); // z and the radius, side by side
+            __m128d const rr = _mm_unpackhi_pd(zr, zr);
+            __m128d const rz = _mm_shuffle_pd(zr, zr, 1);
+            __m128d const z = _mm_move_sd(_mm_sub_pd(zr, rz), _mm_add_pd(zr, rz)); // z + r, r − z
+            __m128d const in_xy = _mm_and_pd(_mm_cmple_pd(a_lo_xy, _mm_add_pd(xy, rr)),
+                                             _mm_cmple_pd(_mm_sub_pd(xy, rr), a_hi_xy));
+            return _mm_movemask_pd(_mm_and_pd(in_xy, _mm_cmple_pd(a_z, z))) == 3;
         };
 #else
-        auto const meets = [&](filed_box const& b) -> bool {
-            return (a.lo_x <= b.hi_x) & (b.lo_x <= a.hi_x) & (a.lo_y <= b.hi_y) & (b.lo_y <= a.hi_y) &
-                   (-a.minus_lo_z <= b.hi_z) & (-a.hi_z <= b.minus_lo_z);
+        double const a_lo[3] = {a.x.x() - a.radius, a.x.y() - a.radius, a.x.z() - a.radius};
+        double const a_hi[3] = {a.x.x() + a.radius, a.x.y() + a.radius, a.x.z() + a.radius};
+        auto const meets = [&](packed_sphere const& b) -> bool {
+            bool in = true;
+            for (Eigen::Index k = 0; k < 3; ++k) // &: no branch per axis
+                in &= (a_lo[k] <= b.x[k] + b.radius) & (b.x[k] - b.radius <= a_hi[k]);
+            return in;
         };
 #endif
         for (std::uint32_t k = 0; k < count; ++k) {
             std::uint32_t const q = candidate[k];
             near[found] = {p, q};
-            found += meets(boxes_[q]);
+            found += meets(filed_[q].sphere);
         }
     }
     near.resize(found);
@@ -413,16 +420,6 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
         touched += !((a.x - b.x).squaredNorm() > reach * reach);
     }
     touching.resize(touched);
-}
-
-void sphere_grid::file_boxes(std::uint32_t begin, std::uint32_t end)
-{
-    for (std::uint32_t k = begin; k < end; ++k) {
-        packed_sphere const& e = filed_[k].sphere;
-        // aabb_of_sphere's bounds, the same roundings
-        boxes_[k] = {e.x.x() - e.radius, e.x.y() - e.radius, e.x.x() + e.radius,
-                     e.x.y() + e.radius, e.x.z() + e.radius, -(e.x.z() - e.radius)};
-    }
 }
 
 } // namespace kugel::physics

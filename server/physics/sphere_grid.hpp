@@ -91,18 +91,7 @@ private:
         packed_sphere sphere;
     };
 
-    /// A sphere's box [x − r, x + r] as the dense near-pair search reads it: the bounds in x
-    /// and y, then z's upper bound and negated lower bound, so that one comparison of two
-    /// pairs of numbers tests both conditions in z.
-    struct filed_box
-    {
-        double lo_x, lo_y, hi_x, hi_y; ///< m
-        double hi_z, minus_lo_z;       ///< m
-    };
-
     void near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
-    /// Fills boxes_ for the filed spheres [begin, end).
-    void file_boxes(std::uint32_t begin, std::uint32_t end);
 
     std::uint64_t stride_y_ = 0; ///< key step to the next y-cell (= cells in z, padded)
     std::uint64_t stride_x_ = 0; ///< key step to the next x-cell
@@ -110,7 +99,6 @@ private:
     /// are searched for in the sorted keys (a sparse scene).
     bool dense_ = false;
     std::vector<filed_sphere> filed_;          ///< in cell order
-    std::vector<filed_box> boxes_;             ///< dense: each filed sphere's box, in cell order
     std::vector<filed_sphere> by_slab_;        ///< by slab, in slot order within each
     std::vector<std::uint64_t> keys_;          ///< cell key by body slot (spheres only)
     std::vector<std::uint32_t> slabs_;         ///< slab by body slot (spheres only)
