@@ -325,46 +325,51 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
                                    std::vector<sphere_pair>& touching) const
 {
     using ranks4 = std::uint32_t __attribute__((vector_size(16)));
-    constexpr std::uint32_t runs = 5;
     constexpr std::uint32_t gather_width = 4; // runs shorter than this are gathered in one write
+    constexpr std::uint32_t most_gathered = 16; // where the writes stop: past it, runs are long
     ranks4 const ascending = {0, 1, 2, 3};
-    std::array<std::uint32_t, runs * gather_width> gathered;
+    std::array<std::uint32_t, most_gathered + gather_width> gathered;
     std::vector<std::uint32_t> spilled;
+    std::uint32_t const* const table = cell_begin_.data();
+    filed_sphere const* const filed = filed_.data();
     // Each row's first cell, from the sphere's own; its three cells end three further on.
     auto const row = [](std::uint64_t offset) { return static_cast<std::ptrdiff_t>(offset) - 1; };
-    std::ptrdiff_t const first_of_row[4] = {row(stride_y_), row(stride_x_ - stride_y_), row(stride_x_),
-                                            row(stride_x_ + stride_y_)};
+    std::ptrdiff_t const row_y = row(stride_y_), row_xy = row(stride_x_ - stride_y_), row_x = row(stride_x_),
+                         row_xyy = row(stride_x_ + stride_y_);
     std::size_t found = 0; // near pairs written
-    for (std::uint32_t p = slab_begin_[s]; p < slab_begin_[s + 1]; ++p) {
-        std::uint32_t const* const cell = cell_begin_.data() + filed_[p].cell;
-        std::uint32_t const begin[runs] = {p + 1, cell[first_of_row[0]], cell[first_of_row[1]],
-                                           cell[first_of_row[2]], cell[first_of_row[3]]};
-        std::uint32_t const end[runs] = {cell[2], cell[first_of_row[0] + 3], cell[first_of_row[1] + 3],
-                                         cell[first_of_row[2] + 3], cell[first_of_row[3] + 3]};
-        std::uint32_t count = 0, any_length = 0;
-#pragma GCC unroll 5
-        for (std::uint32_t k = 0; k < runs; ++k) {
-            count += end[k] - begin[k];
-            any_length |= end[k] - begin[k]; // below gather_width (a power of 2) only if all are
+    std::uint32_t const last = slab_begin_[s + 1];
+    for (std::uint32_t p = slab_begin_[s]; p < last; ++p) {
+        std::uint32_t const* const cell = table + filed[p].cell;
+        // The five runs, each written whole (four ranks from its start) where the last one
+        // ended: one write per run, whatever its length, and only the run's own count kept.
+        // A run of gather_width or more spheres spoils the list; then it is gathered again.
+        std::uint32_t filled = 0, any_length = 0;
+        auto const gather = [&](std::uint32_t begin, std::uint32_t end) {
+            ranks4 const run = begin + ascending;
+            std::memcpy(gathered.data() + filled, &run, sizeof run);
+            std::uint32_t const length = end - begin;
+            any_length |= length; // below gather_width (a power of 2) only if all are
+            filled = std::min(filled + length, most_gathered);
+        };
+        gather(p + 1, cell[2]);
+        gather(cell[row_y], cell[row_y + 3]);
+        gather(cell[row_xy], cell[row_xy + 3]);
+        gather(cell[row_x], cell[row_x + 3]);
+        gather(cell[row_xyy], cell[row_xyy + 3]);
+        std::uint32_t const* candidate = gathered.data();
+        std::uint32_t count = filled;
+        if (any_length >= gather_width) {
+            spilled.clear();
+            for (std::uint32_t q = p + 1; q < cell[2]; ++q) // its own cell and the next, after it
+                spilled.push_back(q);
+            for (std::ptrdiff_t const first : {row_y, row_xy, row_x, row_xyy})
+                for (std::uint32_t q = cell[first]; q < cell[first + 3]; ++q)
+                    spilled.push_back(q);
+            candidate = spilled.data();
+            count = static_cast<std::uint32_t>(spilled.size());
         }
         if (near.size() < found + count)
             near.resize(found + count + near.size() / 2);
-        std::uint32_t const* candidate = gathered.data();
-        if (any_length < gather_width) {
-            std::uint32_t filled = 0;
-#pragma GCC unroll 5
-            for (std::uint32_t k = 0; k < runs; ++k) {
-                ranks4 const run = begin[k] + ascending;
-                std::memcpy(gathered.data() + filled, &run, sizeof run);
-                filled += end[k] - begin[k];
-            }
-        } else {
-            spilled.clear();
-            for (std::uint32_t k = 0; k < runs; ++k)
-                for (std::uint32_t q = begin[k]; q < end[k]; ++q)
-                    spilled.push_back(q);
-            candidate = spilled.data();
-        }
 
         // overlaps() from aabb.hpp: max(lo) <= min(hi) is lo_a <= hi_b and lo_b <= hi_a (as
         // lo <= hi), with aabb_of_sphere's bounds x − r and x + r; in z, lo_a <= hi_b and
