@@ -186,7 +186,8 @@ void push_body_out_of_walls(wall_set const& walls, collision_bodies const& b, st
 /// time it crossed, found by the lecture's linear interpolation between tᵢ and tᵢ₊₁, bounces
 /// there, and finishes the step on its new path. Up to four walls per step (a corner).
 /// Bodies [begin, end), each on its own; also notes each one's free acceleration (unless free
-/// motion was a drift: then there is none).
+/// motion was a drift: then there is none), makes a pending drift first, and notes the
+/// bodies' extent where it leaves them.
 void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,
                             std::size_t begin, std::size_t end,
@@ -195,8 +196,14 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
     out.moved.clear();
     out.responses = 0;
     out.accelerated = false;
+    out.extent = {};
     for (std::size_t k = begin; k < end; ++k) {
         auto const i = static_cast<std::uint32_t>(k);
+        vec3 start = vec3::Zero();
+        if (b.drift_pending) {
+            start = b.x[i];
+            b.x[i] += h * b.v[i];
+        }
         if (b.accelerated) {
             // A body no force moved has no change, and then the quotient is zero too (0/h
             // keeps the sign of zero): the division, slow beside everything else here, is skipped.
@@ -206,9 +213,12 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
             out.accelerated |= !still;
         }
         double const r = b.radius[i];
-        if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))
+        if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r)) {
+            out.extent.add(b.x[i], r);
             continue;
-        body_path path{b.x0[i], b.v0[i], b.accelerated ? free_a[i] : vec3::Zero(), 0.0};
+        }
+        body_path path = b.drift_pending ? body_path{start, b.v[i], vec3::Zero(), 0.0}
+                                         : body_path{b.x0[i], b.v0[i], b.accelerated ? free_a[i] : vec3::Zero(), 0.0};
         vec3 end_position = b.x[i];
         bool bounced = false;
         for (int bounce = 0; bounce < 4; ++bounce) {
@@ -238,6 +248,7 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
             b.v[i] = path.velocity_at(h);
             out.moved.push_back(i);
         }
+        out.extent.add(b.x[i], r);
     }
 }
 
@@ -290,12 +301,15 @@ bool meet_touched_walls(wall_set const& walls, packed_sphere const& s, vec3& v, 
 /// the slab of its first sphere in the grid's cell order, in that order. The grid finds the
 /// pairs itself when the scene asks for it; another broadphase's pairs are put in the same
 /// order, so that the broadphase changes the cost only. When the grid cannot hold the scene,
-/// one slab holds every pair, in slot order. Returns the number of slabs.
+/// one slab holds every pair, in slot order. `extent` is the bodies', when known. Returns the
+/// number of slabs.
 std::size_t find_near_pairs(collision_settings const& settings, collision_bodies const& b,
-                            collision_workspace& ws, parallel_for* loops)
+                            std::optional<sphere_extent> const& extent, collision_workspace& ws,
+                            parallel_for* loops)
 {
     sphere_grid& grid = ws.grid;
-    bool const gridded = grid.build(b.x, b.radius, b.inverse_mass, loops);
+    bool const gridded = extent ? grid.build(b.x, b.radius, b.inverse_mass, *extent, loops)
+                                : grid.build(b.x, b.radius, b.inverse_mass, loops);
     if (!gridded)
         grid.file_in_slot_order(b.x, b.radius, b.inverse_mass);
     std::size_t const slabs = grid.slab_count();
@@ -351,9 +365,10 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
 /// move the packed copies, which go back to the bodies at the end.
 void resolve_pairs_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, free_accelerations free_a,
-                            collision_workspace& ws, collision_stats& stats, parallel_for* loops)
+                            std::optional<sphere_extent> const& extent, collision_workspace& ws,
+                            collision_stats& stats, parallel_for* loops)
 {
-    std::size_t const slabs = find_near_pairs(settings, b, ws, loops);
+    std::size_t const slabs = find_near_pairs(settings, b, extent, ws, loops);
     sphere_grid& grid = ws.grid;
     auto const packed = [&](std::uint32_t k) -> packed_sphere& { return grid.sphere(k); };
     auto const slot_of = [&](std::uint32_t k) { return grid.slot(k); };
@@ -529,9 +544,11 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
         resolve_walls_discrete(settings, wall_tests, bodies, h, free_a, begin, end, workspace.wall_chunks[c]);
     });
     workspace.moved.clear();
+    sphere_extent extent;
     for (wall_chunk const& chunk : workspace.wall_chunks) {
         workspace.moved.insert(workspace.moved.end(), chunk.moved.begin(), chunk.moved.end());
         stats.wall_contacts += chunk.responses;
+        extent.add(chunk.extent);
     }
     // When no body accelerated, no rest threshold has an acceleration in it, and the
     // accelerations are not read by slot at all.
@@ -543,7 +560,9 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
         std::sort(workspace.moved.begin(), workspace.moved.end());
         workspace.moved.erase(std::unique(workspace.moved.begin(), workspace.moved.end()), workspace.moved.end());
     }
-    resolve_pairs_discrete(settings, wall_tests, bodies, h, free_motion, workspace, stats, loops);
+    // Boxes move spheres after the wall pass noted where they were.
+    auto const known_extent = obstacles.empty() ? std::optional<sphere_extent>(extent) : std::nullopt;
+    resolve_pairs_discrete(settings, wall_tests, bodies, h, free_motion, known_extent, workspace, stats, loops);
 
     // No sphere is left inside a wall: the spheres walls and boxes moved are clamped here, once
     // each, and the position passes clamp every sphere they move after each pass (the velocity

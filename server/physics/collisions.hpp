@@ -90,6 +90,10 @@ struct collision_bodies
     /// False when free motion was a drift (a scene without forces): no velocity changed, so
     /// no body accelerated, and v0 may be v itself (read only before v is written).
     bool accelerated = true;
+    /// Discrete mode, without forces: free motion is still to come, a drift x += h·v of every
+    /// body, which the first pass over the bodies makes on its way (x is then the step's start;
+    /// x0 and v0 are not read). Requires accelerated = false.
+    bool drift_pending = false;
 };
 
 /// Discrete mode: the sphere pairs of one slab of the sphere grid and what its passes changed.
@@ -114,6 +118,7 @@ struct wall_chunk
     std::vector<std::uint32_t> moved; ///< the spheres that bounced
     std::uint64_t responses = 0;      ///< sphere–wall responses
     bool accelerated = false;         ///< some body's free motion changed its velocity
+    sphere_extent extent;             ///< of the bodies where the pass left them
 };
 
 /// Scratch space reused across steps.

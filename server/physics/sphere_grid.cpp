@@ -47,15 +47,6 @@ std::optional<std::uint64_t> checked_product(std::uint64_t a, std::uint64_t b)
     return a * b;
 }
 
-/// What one chunk of bodies holds: its spheres' count, largest radius and extreme centres.
-struct chunk_extremes
-{
-    std::uint32_t spheres = 0;
-    double largest_radius = 0.0; // m
-    vec3 lowest = vec3::Constant(std::numeric_limits<double>::infinity());
-    vec3 highest = vec3::Constant(-std::numeric_limits<double>::infinity());
-};
-
 } // namespace
 
 // Why neighbouring cells suffice, in floating point: boxes [x − r, x + r] that overlap on an
@@ -67,37 +58,29 @@ struct chunk_extremes
 bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
                         std::span<double const> inverse_mass, parallel_for* loops)
 {
+    // 1. Spheres, largest radius and extreme centres, per chunk of bodies.
+    std::vector<sphere_extent> found(chunk_count(x.size()));
+    run_chunks(loops, x.size(), [&](std::size_t c, std::size_t begin, std::size_t end) {
+        for (std::size_t i = begin; i < end; ++i)
+            found[c].add(x[i], radius[i]);
+    });
+    sphere_extent all;
+    for (sphere_extent const& part : found)
+        all.add(part);
+    return build(x, radius, inverse_mass, all, loops);
+}
+
+bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
+                        std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops)
+{
     slab_begin_.assign(1, 0);
     slab_cell_.assign(1, 0);
     std::size_t const n = x.size();
     if (n >= (std::size_t{1} << 28))
         return false; // the tables below count in 32 bits
-
-    // 1. Spheres, largest radius and extreme centres, per chunk of bodies (min and max are
-    //    exact, so any split gives the same result).
-    std::size_t const chunks = chunk_count(n);
-    std::vector<chunk_extremes> found(chunks);
-    run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        chunk_extremes e;
-        for (std::size_t i = begin; i < end; ++i) {
-            if (!(radius[i] > 0.0))
-                continue;
-            ++e.spheres;
-            e.largest_radius = std::max(e.largest_radius, radius[i]);
-            e.lowest = e.lowest.cwiseMin(x[i]);
-            e.highest = e.highest.cwiseMax(x[i]);
-        }
-        found[c] = e;
-    });
-    chunk_extremes all;
-    for (std::size_t c = 0; c < chunks; ++c) {
-        all.spheres += found[c].spheres;
-        all.largest_radius = std::max(all.largest_radius, found[c].largest_radius);
-        all.lowest = all.lowest.cwiseMin(found[c].lowest);
-        all.highest = all.highest.cwiseMax(found[c].highest);
-    }
     if (all.spheres == 0)
         return false;
+    std::size_t const chunks = chunk_count(n);
 
     // 2. Cell size and the grid's extent, padded by one cell on every side so that every
     //    neighbour of an occupied cell has a key and no neighbour's key wraps into another row.

@@ -3,8 +3,10 @@
 #include "parallel_for.hpp"
 #include "vec.hpp"
 
+#include <algorithm>
 #include <cstddef>
 #include <cstdint>
+#include <limits>
 #include <span>
 #include <compare>
 #include <vector>
@@ -27,6 +29,35 @@ struct packed_sphere
     vec3 x;              ///< m
     double radius;       ///< m, > 0
     double inverse_mass; ///< 1/kg, 0 for a static sphere
+};
+
+/// What a set of bodies holds for a sphere_grid: its spheres' count, largest radius and
+/// extreme centres. Min and max are exact, so extents of parts merge to the whole's, in any
+/// order.
+struct sphere_extent
+{
+    std::uint32_t spheres = 0;
+    double largest_radius = 0.0; ///< m
+    vec3 lowest = vec3::Constant(std::numeric_limits<double>::infinity());
+    vec3 highest = vec3::Constant(-std::numeric_limits<double>::infinity());
+
+    /// Counts a body (a sphere when r > 0) at x.
+    void add(vec3 const& x, double r)
+    {
+        if (!(r > 0.0))
+            return;
+        ++spheres;
+        largest_radius = std::max(largest_radius, r);
+        lowest = lowest.cwiseMin(x);
+        highest = highest.cwiseMax(x);
+    }
+    void add(sphere_extent const& part)
+    {
+        spheres += part.spheres;
+        largest_radius = std::max(largest_radius, part.largest_radius);
+        lowest = lowest.cwiseMin(part.lowest);
+        highest = highest.cwiseMax(part.highest);
+    }
 };
 
 /// The spheres of one step filed by their centres into cubic cells as wide as the largest
@@ -55,6 +86,9 @@ public:
     /// Positions and radii must be finite.
     bool build(std::span<vec3 const> x, std::span<double const> radius,
                std::span<double const> inverse_mass, parallel_for* loops);
+    /// The same, given the bodies' extent (found on a pass the caller makes anyway).
+    bool build(std::span<vec3 const> x, std::span<double const> radius,
+               std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops);
 
     /// When build() declines: files every sphere in one slab, in slot order, for a caller that
     /// finds the pairs elsewhere (near_pairs() is not available then).

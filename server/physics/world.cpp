@@ -181,12 +181,15 @@ void world::step(double dt)
             integrate(h);
             continue;
         }
-        keep_step_start_and_integrate(h);
         bool const accelerated = !forces_.empty();
+        // Without forces, discrete mode drifts the bodies itself on its first pass over them.
+        bool const drift_pending = !accelerated && settings_.collisions.mode == collision_mode::discrete;
+        if (!drift_pending)
+            keep_step_start_and_integrate(h);
         resolve_collisions(settings_.collisions, walls_, obstacles_,
                            {bodies_.positions(), bodies_.velocities(), step_start_x_,
                             accelerated ? std::span<vec3 const>(step_start_v_) : bodies_.velocities(),
-                            bodies_.inverse_masses(), bodies_.radii(), accelerated},
+                            bodies_.inverse_masses(), bodies_.radii(), accelerated, drift_pending},
                            h, collision_workspace_, collision_stats_, loops());
         workspace_.invalidate(); // contacts may have moved bodies
     }
