@@ -395,8 +395,10 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
         double const a_hi[3] = {a.x.x() + a.radius, a.x.y() + a.radius, a.x.z() + a.radius};
         auto const meets = [&](packed_sphere const& b) -> bool {
             bool in = true;
-            for (Eigen::Index k = 0; k < 3; ++k) // &: no branch per axis
-                in &= (a_lo[k] <= b.x[k] + b.radius) & (b.x[k] - b.radius <= a_hi[k]);
+            for (Eigen::Index k = 0; k < 3; ++k) { // &: no branch per axis
+                double const centre = b.x[k];
+                in &= (a_lo[k] <= centre + b.radius) & (centre - b.radius <= a_hi[k]);
+            }
             return in;
         };
 #endif
