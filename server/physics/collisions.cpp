@@ -182,16 +182,45 @@ void push_body_out_of_walls(wall_set const& walls, collision_bodies const& b, st
     push_out_and_meet_walls(walls, b.x[i], b.v[i], b.radius[i], b.inverse_mass[i], free_a[i], settings, h);
 }
 
-/// Discrete walls: a sphere found inside a wall at the end of the step is taken back to the
-/// time it crossed, found by the lecture's linear interpolation between tᵢ and tᵢ₊₁, bounces
-/// there, and finishes the step on its new path. Up to four walls per step (a corner).
-/// Bodies [begin, end), each on its own; also notes each one's free acceleration (unless free
-/// motion was a drift: then there is none), makes a pending drift first, and notes the
-/// bodies' extent where it leaves them.
+/// Discrete walls: a sphere (radius r) found inside a wall at x, the end of its path, is taken
+/// back to the time it crossed, found by the lecture's linear interpolation between tᵢ and
+/// tᵢ₊₁, bounces there, and finishes the step on its new path, which ends at the new x. Up to
+/// four walls per step (a corner). Returns whether it bounced; counts the responses.
+bool bounce_off_walls(collision_settings const& settings, wall_set const& walls, body_path& path,
+                      vec3& x, double r, double h, std::uint64_t& responses)
+{
+    bool bounced = false;
+    for (int bounce = 0; bounce < 4; ++bounce) {
+        wall const* hit = nullptr;
+        double hit_time = std::numeric_limits<double>::infinity();
+        for (wall const& w : walls.all) {
+            if (w.surface.normal.dot(x) >= w.surface.offset + r)
+                continue;
+            double const t = std::clamp(plane_contact_time_linear(w.surface, r, path.x, path.t, x, h), path.t, h);
+            if (t < hit_time) {
+                hit_time = t;
+                hit = &w;
+            }
+        }
+        if (!hit)
+            break;
+        path.advance_to(hit_time);
+        if (detail::respond_to_surface(path, hit->surface.normal, hit->surface.offset + r, hit->damping,
+                                       hit->friction, settings, h))
+            ++responses;
+        x = path.position_at(h);
+        bounced = true;
+    }
+    return bounced;
+}
+
+/// The discrete wall pass over bodies [begin, end), each on its own: makes a pending drift,
+/// notes each body's free acceleration (unless free motion was a drift: then there is none),
+/// bounces the spheres found inside a wall off it, and notes the bodies' extent where it
+/// leaves them.
 void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,
-                            std::size_t begin, std::size_t end,
-                            wall_chunk& out)
+                            std::size_t begin, std::size_t end, wall_chunk& out)
 {
     out.moved.clear();
     out.responses = 0;
@@ -213,40 +242,13 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
             out.accelerated |= !still;
         }
         double const r = b.radius[i];
-        if (r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r)) {
-            out.extent.add(b.x[i], r);
-            continue;
-        }
-        body_path path = b.drift_pending ? body_path{start, b.v[i], vec3::Zero(), 0.0}
-                                         : body_path{b.x0[i], b.v0[i], b.accelerated ? free_a[i] : vec3::Zero(), 0.0};
-        vec3 end_position = b.x[i];
-        bool bounced = false;
-        for (int bounce = 0; bounce < 4; ++bounce) {
-            wall const* hit = nullptr;
-            double hit_time = std::numeric_limits<double>::infinity();
-            for (wall const& w : walls.all) {
-                if (w.surface.normal.dot(end_position) >= w.surface.offset + r)
-                    continue;
-                double const t = std::clamp(
-                    plane_contact_time_linear(w.surface, r, path.x, path.t, end_position, h), path.t, h);
-                if (t < hit_time) {
-                    hit_time = t;
-                    hit = &w;
-                }
+        if (!(r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))) {
+            body_path path = b.drift_pending ? body_path{start, b.v[i], vec3::Zero(), 0.0}
+                                             : body_path{b.x0[i], b.v0[i], b.accelerated ? free_a[i] : vec3::Zero(), 0.0};
+            if (bounce_off_walls(settings, walls, path, b.x[i], r, h, out.responses)) {
+                b.v[i] = path.velocity_at(h);
+                out.moved.push_back(i);
             }
-            if (!hit)
-                break;
-            path.advance_to(hit_time);
-            if (detail::respond_to_surface(path, hit->surface.normal, hit->surface.offset + r,
-                                           hit->damping, hit->friction, settings, h))
-                ++out.responses;
-            end_position = path.position_at(h);
-            bounced = true;
-        }
-        if (bounced) {
-            b.x[i] = end_position;
-            b.v[i] = path.velocity_at(h);
-            out.moved.push_back(i);
         }
         out.extent.add(b.x[i], r);
     }
