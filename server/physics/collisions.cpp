@@ -335,9 +335,9 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
         slab.contacts.clear();
     }
     for (box_pair const& p : ws.pairs) {
-        // members grow with the box index, so a is the sphere in the lower slot
-        sphere_pair const pair{ws.ranks[ws.members[p.a]], ws.ranks[ws.members[p.b]]};
-        contact_slab& slab = ws.slabs[grid.slab_of(std::min(pair.a, pair.b))];
+        box_pair const ranks = in_cell_order(p);
+        sphere_pair const pair{ranks.a, ranks.b};
+        contact_slab& slab = ws.slabs[grid.slab_of(pair.a)];
         slab.near.push_back(pair);
         packed_sphere const& s = grid.sphere(pair.a);
         packed_sphere const& t = grid.sphere(pair.b);

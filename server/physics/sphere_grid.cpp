@@ -300,7 +300,7 @@ void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
                 packed_sphere const& b = filed_[q].sphere;
                 if (!overlaps(a_box, aabb_of_sphere(b.x, b.radius)))
                     continue;
-                sphere_pair const pair = filed_[p].slot < filed_[q].slot ? sphere_pair{p, q} : sphere_pair{q, p};
+                sphere_pair const pair{p, q};
                 near.push_back(pair);
                 // the discrete step's contact test: |x_i − x_j|² against (r_i + r_j)²
                 double const reach = a.radius + b.radius;
@@ -337,7 +337,22 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
     auto const row = [](std::uint64_t offset) { return static_cast<std::ptrdiff_t>(offset) - 1; };
     std::ptrdiff_t const row_y = row(stride_y_), row_xy = row(stride_x_ - stride_y_), row_x = row(stride_x_),
                          row_xyy = row(stride_x_ + stride_y_);
-    std::size_t found = 0; // near pairs written
+    std::size_t found = 0, checked = 0, touched = 0; // near pairs written, of them tested, touching
+    // The contact test, the discrete step's |x_a − x_b|² against (r_a + r_b)², on the near
+    // pairs found since it last ran: every contact_block spheres, while their entries are
+    // still in the nearest cache.
+    constexpr std::uint32_t contact_block = 256;
+    auto const find_contacts = [&] {
+        for (; checked < found; ++checked) {
+            sphere_pair const pair = near[checked];
+            packed_sphere const& a = filed[pair.a].sphere;
+            packed_sphere const& b = filed[pair.b].sphere;
+            double const reach = a.radius + b.radius;
+            touching[touched] = pair;
+            touched += !((a.x - b.x).squaredNorm() > reach * reach);
+        }
+    };
+    touching.resize(near.size()); // touching stays as long as near
     std::uint32_t const last = slab_begin_[s + 1];
     for (std::uint32_t p = slab_begin_[s]; p < last; ++p) {
         std::uint32_t const* const cell = table + filed[p].cell;
@@ -369,13 +384,16 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
             candidate = spilled.data();
             count = static_cast<std::uint32_t>(spilled.size());
         }
-        if (near.size() < found + count)
+        if (near.size() < found + count) {
             near.resize(found + count + near.size() / 2);
+            touching.resize(near.size());
+        }
+
 
         // overlaps() from aabb.hpp: max(lo) <= min(hi) is lo_a <= hi_b and lo_b <= hi_a (as
         // lo <= hi), with aabb_of_sphere's bounds x − r and x + r; in z, lo_a <= hi_b and
         // −hi_a <= −lo_b (exact negations, and r − z is exactly −(z − r)).
-        packed_sphere const& a = filed_[p].sphere;
+        packed_sphere const& a = filed[p].sphere;
 #if defined(KUGEL_SSE2)
         __m128d const a_xy = _mm_loadu_pd(a.x.data()), a_r = _mm_set1_pd(a.radius);
         __m128d const a_lo_xy = _mm_sub_pd(a_xy, a_r), a_hi_xy = _mm_add_pd(a_xy, a_r);
@@ -402,31 +420,17 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
             return in;
         };
 #endif
+        sphere_pair* const near_out = near.data(); // not reloaded after each write
         for (std::uint32_t k = 0; k < count; ++k) {
             std::uint32_t const q = candidate[k];
-            near[found] = {p, q};
-            found += meets(filed_[q].sphere);
+            near_out[found] = {p, q};
+            found += meets(filed[q].sphere);
         }
+        if ((p & (contact_block - 1)) == 0)
+            find_contacts();
     }
+    find_contacts();
     near.resize(found);
-
-    // Then each near pair on its own: a is the sphere in the lower slot, and those that touch
-    // are contacts. Their order stays that of the search.
-    touching.resize(found);
-    std::size_t touched = 0;
-    for (sphere_pair& pair : near) {
-        // p and q swapped by a mask, not a branch: slots are in no order, so a branch would be
-        // mispredicted half the time
-        std::uint32_t const swap = 0U - static_cast<std::uint32_t>(filed_[pair.b].slot < filed_[pair.a].slot);
-        std::uint32_t const flip = (pair.a ^ pair.b) & swap;
-        pair = {pair.a ^ flip, pair.b ^ flip};
-        // the discrete step's contact test: |x_i − x_j|² against (r_i + r_j)²
-        packed_sphere const& a = filed_[pair.a].sphere;
-        packed_sphere const& b = filed_[pair.b].sphere;
-        double const reach = a.radius + b.radius;
-        touching[touched] = pair;
-        touched += !((a.x - b.x).squaredNorm() > reach * reach);
-    }
     touching.resize(touched);
 }
 

@@ -13,8 +13,8 @@
 
 namespace kugel::physics {
 
-/// Two spheres by their positions in a sphere_grid's cell order; a is the one in the lower
-/// body slot (which side is which matters when two centres coincide).
+/// Two spheres by their positions in a sphere_grid's cell order, a < b (which side is which
+/// matters when two centres coincide: the normal is then +z, from b to a).
 struct sphere_pair
 {
     std::uint32_t a;
@@ -111,8 +111,7 @@ public:
 
     /// Clears `near` and fills it with every pair of slab s whose boxes [x − r, x + r] overlap
     /// (the broadphases' rule, at the positions given to build()), as positions in cell order,
-    /// a the sphere with the lower body slot, sorted by the cell order of their first, then
-    /// their second sphere; `touching` gets those of them whose spheres touch
+    /// a < b, sorted by a, then b; `touching` gets those of them whose spheres touch
     /// (|x_a − x_b| <= r_a + r_b), in the same order.
     void near_pairs(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
 

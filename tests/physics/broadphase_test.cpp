@@ -387,14 +387,14 @@ std::vector<box_pair> sphere_grid_pairs(std::vector<vec3> const& x, std::vector<
         EXPECT_TRUE(touching == expected_touching);
         box_pair previous{0, 0};
         for (sphere_pair const& p : near) {
-            EXPECT_LT(grid.slot(p.a), grid.slot(p.b));
-            box_pair const ranks{std::min(p.a, p.b), std::max(p.a, p.b)};
+            EXPECT_LT(p.a, p.b);
+            box_pair const ranks{p.a, p.b};
             EXPECT_TRUE(&p == near.data() || previous < ranks);
             previous = ranks;
             EXPECT_EQ(grid.slab_of(ranks.a), s);
             std::size_t const second = grid.slab_of(ranks.b);
             EXPECT_TRUE(second == s || second == s + 1) << "slab " << s << " reaches " << second;
-            all.push_back({grid.slot(p.a), grid.slot(p.b)});
+            all.push_back({std::min(grid.slot(p.a), grid.slot(p.b)), std::max(grid.slot(p.a), grid.slot(p.b))});
         }
     }
     std::sort(all.begin(), all.end());
