@@ -71,6 +71,23 @@ std::optional<std::uint64_t> checked_product(std::uint64_t a, std::uint64_t b)
 
 } // namespace
 
+void sphere_grid::resize_filed(std::uint32_t spheres)
+{
+    spheres_.resize(spheres);
+    slots_.resize(spheres);
+    cells_.resize(spheres);
+}
+
+auto sphere_grid::filer()
+{
+    return [spheres = spheres_.data(), slots = slots_.data(), cells = cells_.data()](std::uint32_t rank,
+                                                                                    filed_sphere const& e) {
+        spheres[rank] = e.sphere;
+        slots[rank] = e.slot;
+        cells[rank] = e.cell;
+    };
+}
+
 // Why neighbouring cells suffice, in floating point: boxes [x − r, x + r] that overlap on an
 // axis have centres at most r₁ + r₂ <= 2·r_max apart plus the rounding of x ± r, and their
 // cells are computed from rounded quotients x/h. With h = 2·r_max·(1 + 8u·(2 + reach)),
@@ -158,11 +175,11 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
             ++cell_begin_[keys_[i]];
         }
         running_sums(cell_begin_.data(), cell_begin_.data() + cell_begin_.size(), 0); // each cell's end, for now
-        filed_.resize(all.spheres);
+        resize_filed(all.spheres);
+        auto const file = filer();
         for (std::size_t i = n; i-- > 0;) {
             if (radius[i] > 0.0) // now each cell's start:
-                filed_[--cell_begin_[keys_[i]]] = {keys_[i], static_cast<std::uint32_t>(i),
-                                                   {x[i], radius[i], inverse_mass[i]}};
+                file(--cell_begin_[keys_[i]], {keys_[i], static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
         }
         slab_begin_.resize(slabs + 1);
         for (std::uint32_t s = 0; s <= slabs; ++s)
@@ -220,7 +237,8 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     //    at the same time.
     if (dense_)
         cell_begin_.resize(*cells + 1);
-    filed_.resize(all.spheres);
+    resize_filed(all.spheres);
+    auto const file = filer();
     run_loop(loops, slabs, [&](std::size_t s) {
         std::uint32_t const begin = slab_begin_[s], end = slab_begin_[s + 1];
         if (dense_) {
@@ -231,13 +249,14 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
                 ++cell_begin_[by_slab_[k].cell];
             running_sums(first_cell, last_cell, begin); // each cell's end, for now
             for (std::uint32_t k = end; k-- > begin;)
-                filed_[--cell_begin_[by_slab_[k].cell]] = by_slab_[k]; // now each cell's start
+                file(--cell_begin_[by_slab_[k].cell], by_slab_[k]); // now each cell's start
         } else {
-            auto const first = filed_.begin() + begin, last = filed_.begin() + end;
-            std::copy(by_slab_.begin() + begin, by_slab_.begin() + end, first);
+            auto const first = by_slab_.begin() + begin, last = by_slab_.begin() + end;
             std::sort(first, last, [](filed_sphere const& a, filed_sphere const& b) {
                 return a.cell != b.cell ? a.cell < b.cell : a.slot < b.slot;
             });
+            for (std::uint32_t k = begin; k < end; ++k)
+                file(k, by_slab_[k]);
         }
     });
     return true;
@@ -246,18 +265,21 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
 void sphere_grid::file_in_slot_order(std::span<vec3 const> x, std::span<double const> radius,
                                      std::span<double const> inverse_mass)
 {
-    filed_.clear();
+    auto const spheres = static_cast<std::uint32_t>(std::count_if(radius.begin(), radius.end(), [](double r) { return r > 0.0; }));
+    resize_filed(spheres);
+    auto const file = filer();
+    std::uint32_t k = 0;
     for (std::size_t i = 0; i < x.size(); ++i)
         if (radius[i] > 0.0)
-            filed_.push_back({0, static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
-    slab_begin_ = {0, static_cast<std::uint32_t>(filed_.size())};
+            file(k++, {0, static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
+    slab_begin_ = {0, spheres};
 }
 
 void sphere_grid::ranks(std::size_t n, std::vector<std::uint32_t>& out) const
 {
     out.resize(n);
-    for (std::uint32_t k = 0; k < filed_.size(); ++k)
-        out[filed_[k].slot] = k;
+    for (std::uint32_t k = 0; k < slots_.size(); ++k)
+        out[slots_[k]] = k;
 }
 
 std::size_t sphere_grid::slab_of(std::uint32_t rank) const
@@ -278,26 +300,25 @@ void sphere_grid::near_pairs(std::size_t s, std::vector<sphere_pair>& near,
         return near_pairs_dense(s, near, touching);
     // A sparse scene: each run's ends searched for in the sorted keys, one run after another.
     auto const first_at_or_after = [&](std::uint64_t key) {
-        auto const found = std::partition_point(filed_.begin(), filed_.end(),
-                                                [&](filed_sphere const& e) { return e.cell < key; });
-        return static_cast<std::uint32_t>(found - filed_.begin());
+        auto const found = std::partition_point(cells_.begin(), cells_.end(), [&](std::uint64_t c) { return c < key; });
+        return static_cast<std::uint32_t>(found - cells_.begin());
     };
     near.clear();
     touching.clear();
     std::array<std::uint64_t, 4> const row_offsets = {stride_y_, stride_x_ - stride_y_, stride_x_,
                                                       stride_x_ + stride_y_};
     for (std::uint32_t p = slab_begin_[s]; p < slab_begin_[s + 1]; ++p) {
-        std::uint64_t const key = filed_[p].cell;
+        std::uint64_t const key = cells_[p];
         std::array<std::array<std::uint32_t, 2>, 5> runs;
         runs[0] = {p + 1, first_at_or_after(key + 2)};
         for (std::size_t k = 0; k < 4; ++k)
             runs[k + 1] = {first_at_or_after(key + row_offsets[k] - 1),
                            first_at_or_after(key + row_offsets[k] + 2)};
-        packed_sphere const& a = filed_[p].sphere;
+        packed_sphere const& a = spheres_[p];
         aabb const a_box = aabb_of_sphere(a.x, a.radius);
         for (auto const& [begin, end] : runs) {
             for (std::uint32_t q = begin; q < end; ++q) {
-                packed_sphere const& b = filed_[q].sphere;
+                packed_sphere const& b = spheres_[q];
                 if (!overlaps(a_box, aabb_of_sphere(b.x, b.radius)))
                     continue;
                 sphere_pair const pair{p, q};
@@ -332,7 +353,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
     std::array<std::uint32_t, most_gathered + gather_width> gathered;
     std::vector<std::uint32_t> spilled;
     std::uint32_t const* const table = cell_begin_.data();
-    filed_sphere const* const filed = filed_.data();
+    packed_sphere const* const filed = spheres_.data();
     // Each row's first cell, from the sphere's own; its three cells end three further on.
     auto const row = [](std::uint64_t offset) { return static_cast<std::ptrdiff_t>(offset) - 1; };
     std::ptrdiff_t const row_y = row(stride_y_), row_xy = row(stride_x_ - stride_y_), row_x = row(stride_x_),
@@ -345,8 +366,8 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
     auto const find_contacts = [&] {
         for (; checked < found; ++checked) {
             sphere_pair const pair = near[checked];
-            packed_sphere const& a = filed[pair.a].sphere;
-            packed_sphere const& b = filed[pair.b].sphere;
+            packed_sphere const& a = filed[pair.a];
+            packed_sphere const& b = filed[pair.b];
             double const reach = a.radius + b.radius;
             touching[touched] = pair;
             touched += !((a.x - b.x).squaredNorm() > reach * reach);
@@ -355,7 +376,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
     touching.resize(near.size()); // touching stays as long as near
     std::uint32_t const last = slab_begin_[s + 1];
     for (std::uint32_t p = slab_begin_[s]; p < last; ++p) {
-        std::uint32_t const* const cell = table + filed[p].cell;
+        std::uint32_t const* const cell = table + cells_[p];
         // The five runs, each written whole (four ranks from its start) where the last one
         // ended: one write per run, whatever its length, and only the run's own count kept.
         // A run of gather_width or more spheres spoils the list; then it is gathered again.
@@ -393,7 +414,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
         // overlaps() from aabb.hpp: max(lo) <= min(hi) is lo_a <= hi_b and lo_b <= hi_a (as
         // lo <= hi), with aabb_of_sphere's bounds x − r and x + r; in z, lo_a <= hi_b and
         // −hi_a <= −lo_b (exact negations, and r − z is exactly −(z − r)).
-        packed_sphere const& a = filed[p].sphere;
+        packed_sphere const& a = filed[p];
 #if defined(KUGEL_SSE2)
         __m128d const a_xy = _mm_loadu_pd(a.x.data()), a_r = _mm_set1_pd(a.radius);
         __m128d const a_lo_xy = _mm_sub_pd(a_xy, a_r), a_hi_xy = _mm_add_pd(a_xy, a_r);
@@ -424,7 +445,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
         for (std::uint32_t k = 0; k < count; ++k) {
             std::uint32_t const q = candidate[k];
             near_out[found] = {p, q};
-            found += meets(filed[q].sphere);
+            found += meets(filed[q]);
         }
         if ((p & (contact_block - 1)) == 0)
             find_contacts();
