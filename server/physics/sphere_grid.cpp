@@ -166,20 +166,32 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         // On one thread, a single counting sort over every cell, straight from the bodies:
         // the same order (cell, then slot) without the buckets per slab that let threads sort
         // slabs at the same time. A slab then starts where its first cell does.
+        // The table (a few cells per sphere) is larger than the nearest caches, and the cells
+        // come in no order: so the keys are found first, and each pass fetches the table's
+        // entry (and, placing, the entry's destination) some spheres ahead of using it.
+        constexpr std::size_t ahead = 16;
         keys_.resize(n);
-        cell_begin_.assign(*cells + 1, 0U);
+        std::uint64_t* const key = keys_.data();
+        std::uint32_t* const table = (cell_begin_.assign(*cells + 1, 0U), cell_begin_.data());
+        for (std::size_t i = 0; i < n; ++i) // bodies that are not spheres get a key, unused
+            key[i] = radius[i] > 0.0 ? cell_of(i, 0) * stride_x_ + cell_of(i, 1) * stride_y_ + cell_of(i, 2) : 0;
         for (std::size_t i = 0; i < n; ++i) {
-            if (!(radius[i] > 0.0))
-                continue;
-            keys_[i] = cell_of(i, 0) * stride_x_ + cell_of(i, 1) * stride_y_ + cell_of(i, 2);
-            ++cell_begin_[keys_[i]];
+            if (i + ahead < n)
+                __builtin_prefetch(table + key[i + ahead], 1);
+            table[key[i]] += radius[i] > 0.0 ? 1U : 0U;
         }
-        running_sums(cell_begin_.data(), cell_begin_.data() + cell_begin_.size(), 0); // each cell's end, for now
+        running_sums(table, table + cell_begin_.size(), 0); // each cell's end, for now
         resize_filed(all.spheres);
         auto const file = filer();
         for (std::size_t i = n; i-- > 0;) {
+            if (i >= ahead)
+                __builtin_prefetch(table + key[i - ahead], 1);
+            if (i >= ahead / 2) { // its destination, one before its cell's present start
+                std::uint32_t const start = table[key[i - ahead / 2]];
+                __builtin_prefetch(spheres_.data() + (start - (start > 0 ? 1 : 0)), 1);
+            }
             if (radius[i] > 0.0) // now each cell's start:
-                file(--cell_begin_[keys_[i]], {keys_[i], static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
+                file(--table[key[i]], {key[i], static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
         }
         slab_begin_.resize(slabs + 1);
         for (std::uint32_t s = 0; s <= slabs; ++s)
