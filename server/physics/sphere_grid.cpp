@@ -32,6 +32,11 @@ constexpr std::uint64_t dense_cells_per_sphere = 16;
 /// spheres: 150 ms per step sorting all at once, 140 ms slab by slab).
 constexpr std::uint64_t direct_sort_cells = std::uint64_t{1} << 20;
 
+/// How many spheres ahead the counting sorts fetch the table entries (and the destinations,
+/// half as far) they will need: the table is larger than the nearest caches and the cells come
+/// in no order. 16 and 32 measured the same; without, a step of 10^5 spheres was 8 % slower.
+constexpr std::size_t prefetch_distance = 16;
+
 /// floor(q) for |q| < 2^53, without a library call.
 std::int64_t floor_to_integer(double q)
 {
@@ -169,25 +174,24 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         // The table (a few cells per sphere) is larger than the nearest caches, and the cells
         // come in no order: so the keys are found first, and each pass fetches the table's
         // entry (and, placing, the entry's destination) some spheres ahead of using it.
-        constexpr std::size_t ahead = 16;
         keys_.resize(n);
         std::uint64_t* const key = keys_.data();
         std::uint32_t* const table = (cell_begin_.assign(*cells + 1, 0U), cell_begin_.data());
         for (std::size_t i = 0; i < n; ++i) // bodies that are not spheres get a key, unused
             key[i] = radius[i] > 0.0 ? cell_of(i, 0) * stride_x_ + cell_of(i, 1) * stride_y_ + cell_of(i, 2) : 0;
         for (std::size_t i = 0; i < n; ++i) {
-            if (i + ahead < n)
-                __builtin_prefetch(table + key[i + ahead], 1);
+            if (i + prefetch_distance < n)
+                __builtin_prefetch(table + key[i + prefetch_distance], 1);
             table[key[i]] += radius[i] > 0.0 ? 1U : 0U;
         }
         running_sums(table, table + cell_begin_.size(), 0); // each cell's end, for now
         resize_filed(all.spheres);
         auto const file = filer();
         for (std::size_t i = n; i-- > 0;) {
-            if (i >= ahead)
-                __builtin_prefetch(table + key[i - ahead], 1);
-            if (i >= ahead / 2) { // its destination, one before its cell's present start
-                std::uint32_t const start = table[key[i - ahead / 2]];
+            if (i >= prefetch_distance)
+                __builtin_prefetch(table + key[i - prefetch_distance], 1);
+            if (i >= prefetch_distance / 2) { // its destination, one before its cell's present start
+                std::uint32_t const start = table[key[i - prefetch_distance / 2]];
                 __builtin_prefetch(spheres_.data() + (start - (start > 0 ? 1 : 0)), 1);
             }
             if (radius[i] > 0.0) // now each cell's start:
@@ -257,11 +261,23 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
             std::uint32_t* const first_cell = cell_begin_.data() + slab_cell_[s];
             std::uint32_t* const last_cell = cell_begin_.data() + slab_cell_[s + 1];
             std::fill(first_cell, last_cell, 0U);
-            for (std::uint32_t k = begin; k < end; ++k)
-                ++cell_begin_[by_slab_[k].cell];
+            std::uint32_t* const table = cell_begin_.data();
+            filed_sphere const* const entry = by_slab_.data();
+            for (std::uint32_t k = begin; k < end; ++k) {
+                if (k + prefetch_distance < end) // as in the sort on one thread above
+                    __builtin_prefetch(table + entry[k + prefetch_distance].cell, 1);
+                ++table[entry[k].cell];
+            }
             running_sums(first_cell, last_cell, begin); // each cell's end, for now
-            for (std::uint32_t k = end; k-- > begin;)
-                file(--cell_begin_[by_slab_[k].cell], by_slab_[k]); // now each cell's start
+            for (std::uint32_t k = end; k-- > begin;) {
+                if (k >= begin + prefetch_distance)
+                    __builtin_prefetch(table + entry[k - prefetch_distance].cell, 1);
+                if (k >= begin + prefetch_distance / 2) {
+                    std::uint32_t const start = table[entry[k - prefetch_distance / 2].cell];
+                    __builtin_prefetch(spheres_.data() + (start - (start > 0 ? 1 : 0)), 1);
+                }
+                file(--table[entry[k].cell], entry[k]); // now each cell's start
+            }
         } else {
             auto const first = by_slab_.begin() + begin, last = by_slab_.begin() + end;
             std::sort(first, last, [](filed_sphere const& a, filed_sphere const& b) {
