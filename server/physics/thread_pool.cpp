@@ -5,6 +5,27 @@
 
 namespace kugel::physics {
 
+namespace {
+
+/// Checks `done` for about 50 µs, pausing between checks; whether it came true.
+template <class Done>
+bool spin_wait(Done const& done)
+{
+    constexpr int checks = 2000; // times a pause of some 25 ns
+    for (int k = 0; k < checks; ++k) {
+        if (done())
+            return true;
+#if defined(__x86_64__) || defined(__i386__)
+        __builtin_ia32_pause();
+#else
+        std::this_thread::yield();
+#endif
+    }
+    return done();
+}
+
+} // namespace
+
 thread_pool::thread_pool(std::size_t threads)
 {
     if (threads < 1)
@@ -38,6 +59,7 @@ void thread_pool::run(std::size_t count, std::function<void(std::size_t)> const&
     }
     job_posted_.notify_all();
     drain();
+    spin_wait([this] { return helping_.load(std::memory_order_acquire) == 0; });
     std::unique_lock lock(mutex_);
     job_done_.wait(lock, [this] { return helping_ == 0; });
     task_ = nullptr;
@@ -71,6 +93,7 @@ void thread_pool::work()
 {
     std::uint64_t seen = 0;
     for (;;) {
+        spin_wait([&] { return job_.load(std::memory_order_acquire) != seen; });
         {
             std::unique_lock lock(mutex_);
             job_posted_.wait(lock, [&] { return stopping_ || job_ != seen; });
