@@ -319,16 +319,20 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
                             parallel_for* loops)
 {
     sphere_grid& grid = ws.grid;
-    bool const gridded = extent ? grid.build(b.x, b.radius, b.inverse_mass, *extent, loops)
-                                : grid.build(b.x, b.radius, b.inverse_mass, loops);
+    bool const own_pairs = settings.broadphase == broadphase_kind::uniform_grid;
+    ws.slabs.resize(sphere_grid::most_slabs); // the grid's pairs are found while it is built
+    sphere_grid::slab_ready const pairs_of = [&](std::size_t s) {
+        grid.near_pairs(s, ws.slabs[s].near, ws.slabs[s].contacts);
+    };
+    sphere_grid::slab_ready const none;
+    bool const gridded = extent ? grid.build(b.x, b.radius, b.inverse_mass, *extent, loops, own_pairs ? pairs_of : none)
+                                : grid.build(b.x, b.radius, b.inverse_mass, loops, own_pairs ? pairs_of : none);
     if (!gridded)
         grid.file_in_slot_order(b.x, b.radius, b.inverse_mass);
     std::size_t const slabs = grid.slab_count();
     ws.slabs.resize(slabs);
-    if (gridded && settings.broadphase == broadphase_kind::uniform_grid) {
-        run_loop(loops, slabs, [&](std::size_t s) { grid.near_pairs(s, ws.slabs[s].near, ws.slabs[s].contacts); });
+    if (gridded && own_pairs)
         return slabs;
-    }
     sphere_boxes(b.x, b.radius, ws);
     find_overlapping_pairs(settings.broadphase, ws.boxes, ws.pairs, ws.broadphase);
     grid.ranks(b.x.size(), ws.ranks);

@@ -22,7 +22,7 @@ constexpr double unit_roundoff = 0x1p-53;
 constexpr double largest_cell_coordinate = 0x1p47;
 /// Slabs per grid at most: enough for two threads to share them evenly, few enough that a
 /// slab is much larger than its boundary with the next.
-constexpr std::uint32_t most_slabs = 16;
+constexpr std::uint32_t most_slabs = sphere_grid::most_slabs;
 /// Up to this many cells per sphere the grid keeps a table of every cell's start (a gas at
 /// 10% fill has about 5); beyond it, a sparse scene, it searches the sorted keys instead.
 constexpr std::uint64_t dense_cells_per_sphere = 16;
@@ -100,7 +100,7 @@ auto sphere_grid::filer()
 // by at most 1 (the rounding adds at most u·(4·reach + 1) relative to h), so their cells are
 // the same or adjacent on every axis. The same argument as uniform_grid.cpp's, for centres.
 bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
-                        std::span<double const> inverse_mass, parallel_for* loops)
+                        std::span<double const> inverse_mass, parallel_for* loops, slab_ready const& ready)
 {
     // 1. Spheres, largest radius and extreme centres, per chunk of bodies.
     std::vector<sphere_extent> found(chunk_count(x.size()));
@@ -111,11 +111,12 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     sphere_extent all;
     for (sphere_extent const& part : found)
         all.add(part);
-    return build(x, radius, inverse_mass, all, loops);
+    return build(x, radius, inverse_mass, all, loops, ready);
 }
 
 bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
-                        std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops)
+                        std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops,
+                        slab_ready const& ready)
 {
     slab_begin_.assign(1, 0);
     slab_cell_.assign(1, 0);
@@ -127,7 +128,11 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     std::size_t const chunks = chunk_count(n);
 
     // 2. Cell size and the grid's extent, padded by one cell on every side so that every
-    //    neighbour of an occupied cell has a key and no neighbour's key wraps into another row.
+    //    neighbour of an occupied cell has a key and no neighbour's key wraps into another row,
+    //    and by a second above in z, so that the end of a run of three cells (the start of the
+    //    cell after it) is in the same row too: the pairs of a slab then read the table and
+    //    the spheres of that slab and the next alone, which lets them be found before the
+    //    slab after that is sorted.
     double const diameter = 2.0 * all.largest_radius;
     double const reach =
         std::max(all.lowest.cwiseAbs().maxCoeff(), all.highest.cwiseAbs().maxCoeff()) / diameter;
@@ -138,7 +143,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     for (std::size_t k = 0; k < 3; ++k) {
         auto const axis = static_cast<Eigen::Index>(k);
         lowest_cell[k] = floor_to_integer(all.lowest[axis] / cell_size);
-        size[k] = floor_to_integer(all.highest[axis] / cell_size) - lowest_cell[k] + 3;
+        size[k] = floor_to_integer(all.highest[axis] / cell_size) - lowest_cell[k] + (k == 2 ? 4 : 3);
     }
     // Keys number every cell of the padded grid; a table of them all is kept when it has no
     // more than a few entries per sphere.
@@ -200,6 +205,9 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         slab_begin_.resize(slabs + 1);
         for (std::uint32_t s = 0; s <= slabs; ++s)
             slab_begin_[s] = s < slabs ? cell_begin_[slab_cell_[s]] : all.spheres;
+        if (ready)
+            for (std::size_t s = 0; s < slabs; ++s)
+                ready(s);
         return true;
     }
 
@@ -255,7 +263,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         cell_begin_.resize(*cells + 1);
     resize_filed(all.spheres);
     auto const file = filer();
-    run_loop(loops, slabs, [&](std::size_t s) {
+    auto const sort_slab = [&](std::size_t s) {
         std::uint32_t const begin = slab_begin_[s], end = slab_begin_[s + 1];
         if (dense_) {
             std::uint32_t* const first_cell = cell_begin_.data() + slab_cell_[s];
@@ -286,7 +294,27 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
             for (std::uint32_t k = begin; k < end; ++k)
                 file(k, by_slab_[k]);
         }
+    };
+    if (!ready || !dense_) { // a sparse grid's search reads every slab's keys
+        run_loop(loops, slabs, sort_slab);
+        if (ready)
+            run_loop(loops, slabs, ready);
+        return true;
+    }
+    // 7. Each slab is ready as soon as it and the next are sorted: then, while both are still
+    //    in cache, ready() reads them (at 10^6 spheres the grid is larger than the last-level
+    //    cache, and reading it afterwards waited on memory). Runs of whole slabs are sorted at
+    //    the same time, each in order; the last slab of each run waits for the next run.
+    std::size_t const runs = loops ? std::min<std::size_t>(4, slabs) : 1;
+    auto const run_begin = [&](std::size_t r) { return slabs * r / runs; };
+    run_loop(loops, runs, [&](std::size_t r) {
+        for (std::size_t s = run_begin(r); s < run_begin(r + 1); ++s) {
+            sort_slab(s);
+            if (s > run_begin(r))
+                ready(s - 1);
+        }
     });
+    run_loop(loops, runs, [&](std::size_t r) { ready(run_begin(r + 1) - 1); });
     return true;
 }
 

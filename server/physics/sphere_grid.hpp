@@ -9,6 +9,7 @@
 #include <limits>
 #include <span>
 #include <compare>
+#include <functional>
 #include <vector>
 
 namespace kugel::physics {
@@ -80,15 +81,23 @@ struct sphere_extent
 class sphere_grid
 {
 public:
+    /// Slabs a grid has at most.
+    static constexpr std::uint32_t most_slabs = 16;
+    /// Called with a slab once it and the next are filed: near_pairs() of that slab may run.
+    /// Calls for different slabs may come at the same time, on the threads of `loops`.
+    using slab_ready = std::function<void(std::size_t)>;
+
     /// Files the spheres (radius > 0) at x. False, with nothing filed, when the grid cannot
     /// hold them: no sphere, coordinates more than 2^47 cells from the origin (e.g. 10^13 m
     /// with 0.1 m spheres), or a scene spanning more cells than a 64-bit key can number.
-    /// Positions and radii must be finite.
+    /// Positions and radii must be finite. When given, ready() is called for every slab of
+    /// the grid, each as soon as it can be (not at all when the grid declines).
     bool build(std::span<vec3 const> x, std::span<double const> radius,
-               std::span<double const> inverse_mass, parallel_for* loops);
+               std::span<double const> inverse_mass, parallel_for* loops, slab_ready const& ready = {});
     /// The same, given the bodies' extent (found on a pass the caller makes anyway).
     bool build(std::span<vec3 const> x, std::span<double const> radius,
-               std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops);
+               std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops,
+               slab_ready const& ready);
 
     /// When build() declines: files every sphere in one slab, in slot order, for a caller that
     /// finds the pairs elsewhere (near_pairs() is not available then).

@@ -498,6 +498,53 @@ TEST(SphereGrid, SameOrderWithAPoolOfThreads)
     }
 }
 
+// The discrete step finds each slab's pairs while the grid is still being built, as soon as
+// that slab and the next are sorted (while other threads sort the rest). They must be the
+// pairs found once it is built: scenes of 16 x-cells or fewer have slabs one cell wide, where
+// a slab's pairs reach the next slab's cells, with spheres in the corners of the grid too.
+TEST(SphereGrid, PairsFoundWhileBuildingAreThoseFoundAfter)
+{
+    thread_pool two(2), three(3);
+    for (std::uint64_t const seed : {21U, 22U, 23U}) {
+        std::mt19937_64 rng(seed);
+        std::vector<vec3> x;
+        std::vector<double> r;
+        double const side = seed == 23U ? 3.0 : 1.5; // cells of 0.1 m
+        add_random_spheres(rng, seed == 23U ? 16000 : 2000, vec3::Zero(), side, 0.03, 0.05, x, r); // as dense
+        for (double const cx : {0.0, side})
+            for (double const cy : {0.0, side})
+                for (double const cz : {0.0, side}) {
+                    x.push_back(vec3(cx, cy, cz));
+                    r.push_back(0.05);
+                    x.push_back(vec3(cx, cy, cz) + vec3(0.04, 0.0, 0.0));
+                    r.push_back(0.05);
+                }
+        std::vector<double> const inverse_mass(x.size(), 1.0);
+        for (parallel_for* loops : {static_cast<parallel_for*>(nullptr), static_cast<parallel_for*>(&two),
+                                    static_cast<parallel_for*>(&three)}) {
+            SCOPED_TRACE("seed " + std::to_string(seed) + (loops == nullptr ? ", no pool" : ", a pool"));
+            sphere_grid grid;
+            std::vector<std::vector<sphere_pair>> near(sphere_grid::most_slabs), touching(sphere_grid::most_slabs);
+            std::vector<int> calls(sphere_grid::most_slabs, 0);
+            ASSERT_TRUE(grid.build(x, r, inverse_mass, loops, [&](std::size_t s) {
+                ++calls[s];
+                grid.near_pairs(s, near[s], touching[s]);
+            }));
+            ASSERT_EQ(grid.slab_count(), 16U); // 16 and 31 x-cells: slabs one and two cells wide
+            std::vector<sphere_pair> after, after_touching;
+            std::size_t pairs = 0;
+            for (std::size_t s = 0; s < grid.slab_count(); ++s) {
+                EXPECT_EQ(calls[s], 1) << "slab " << s;
+                grid.near_pairs(s, after, after_touching);
+                EXPECT_TRUE(near[s] == after) << "slab " << s;
+                EXPECT_TRUE(touching[s] == after_touching) << "slab " << s;
+                pairs += after.size();
+            }
+            EXPECT_GT(pairs, 1000U); // not a vacuous comparison
+        }
+    }
+}
+
 // The grid declines what it cannot hold, and the discrete step then falls back to the
 // broadphases in slot order: no sphere, or coordinates so far out that cells finer than the
 // coordinates resolve would be needed. A sparse scene (one sphere flung far off) it holds,
