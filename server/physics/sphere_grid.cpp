@@ -20,9 +20,6 @@ constexpr double unit_roundoff = 0x1p-53;
 /// As in uniform_grid.cpp: beyond this |coordinate| / cell size, cells get finer than the
 /// coordinates can resolve.
 constexpr double largest_cell_coordinate = 0x1p47;
-/// Slabs per grid at most: enough for two threads to share them evenly, few enough that a
-/// slab is much larger than its boundary with the next.
-constexpr std::uint32_t most_slabs = sphere_grid::most_slabs;
 /// Up to this many cells per sphere the grid keeps a table of every cell's start (a gas at
 /// 10% fill has about 5); beyond it, a sparse scene, it searches the sorted keys instead.
 constexpr std::uint64_t dense_cells_per_sphere = 16;

@@ -81,7 +81,8 @@ struct sphere_extent
 class sphere_grid
 {
 public:
-    /// Slabs a grid has at most.
+    /// Slabs a grid has at most: enough for two threads to share them evenly, few enough
+    /// that a slab is much larger than its boundary with the next.
     static constexpr std::uint32_t most_slabs = 16;
     /// Called with a slab once it and the next are filed: near_pairs() of that slab may run.
     /// Calls for different slabs may come at the same time, on the threads of `loops`.
