@@ -44,9 +44,11 @@ struct location
     }
 };
 
+/// The value's type and its start, for a message: bytes that are not UTF-8 (a --set value
+/// is kept as the string it was given when it is not JSON) print as U+FFFD.
 std::string describe(json const& value)
 {
-    std::string text = value.dump();
+    std::string text = value.dump(-1, ' ', false, json::error_handler_t::replace);
     if (text.size() > 40)
         text = text.substr(0, 37) + "...";
     return std::string(value.type_name()) + " " + text;
@@ -532,6 +534,11 @@ void apply_override(json& doc, std::string const& assignment, std::string const&
     auto const eq = assignment.find('=');
     if (eq == std::string::npos || eq == 0)
         fail("expected PATH=VALUE, e.g. dt=0.001 or generators.0.count=1000");
+    try { // a scene is JSON text, which is UTF-8; so is every string a scene holds
+        (void)json(assignment).dump();
+    } catch (json::type_error const&) {
+        fail("not UTF-8 text");
+    }
     std::string const path = assignment.substr(0, eq);
     std::string const raw = assignment.substr(eq + 1);
     json value = json::parse(raw, nullptr, /*allow_exceptions=*/false);

@@ -271,6 +271,13 @@ TEST(SceneOverrides, BadOverridesAreRefusedClearly)
     EXPECT_NE(error_of(small_scene, {"integrator=rk5"}).find("unknown integrator 'rk5'"),
               std::string::npos);
     EXPECT_NE(error_of(small_scene, {"dtt=1"}).find("/dtt: unknown field"), std::string::npos);
+    // A value that is not JSON is taken as a string, so bytes that are not UTF-8 would have
+    // become a string no JSON can hold, which ended the process when a message quoted it
+    // (found by the scene fuzzer: "dt=0{" and the byte 0xb6). They are refused where given.
+    EXPECT_NE(error_of(small_scene, {"dt=0{\xb6"}).find("--set dt=0{\xb6: not UTF-8 text"), std::string::npos);
+    EXPECT_NE(error_of(small_scene, {"name=\xc3"}).find("not UTF-8 text"), std::string::npos);
+    EXPECT_NE(error_of(small_scene, {"na\xffme=1"}).find("not UTF-8 text"), std::string::npos);
+    EXPECT_EQ(parse_scene(small_scene, "test.json", std::vector<std::string>{"name=K\xc3\xbcgel"}).name, "K\xc3\xbcgel");
 }
 
 TEST(SceneGenerators, AreSeededAndStayInsideTheirLimits)
