@@ -80,6 +80,12 @@ void sphere_grid::resize_filed(std::uint32_t spheres)
     cells_.resize(spheres);
 }
 
+void sphere_grid::fetch_destination(std::uint32_t start) const
+{
+    // one before the cell's present start; a cell with no sphere left to place may start at 0
+    __builtin_prefetch(spheres_.data() + (start - (start > 0 ? 1 : 0)), 1);
+}
+
 auto sphere_grid::filer()
 {
     return [spheres = spheres_.data(), slots = slots_.data(), cells = cells_.data()](std::uint32_t rank,
@@ -192,10 +198,8 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         for (std::size_t i = n; i-- > 0;) {
             if (i >= prefetch_distance)
                 __builtin_prefetch(table + key[i - prefetch_distance], 1);
-            if (i >= prefetch_distance / 2) { // its destination, one before its cell's present start
-                std::uint32_t const start = table[key[i - prefetch_distance / 2]];
-                __builtin_prefetch(spheres_.data() + (start - (start > 0 ? 1 : 0)), 1);
-            }
+            if (i >= prefetch_distance / 2)
+                fetch_destination(table[key[i - prefetch_distance / 2]]);
             if (radius[i] > 0.0) // now each cell's start:
                 file(--table[key[i]], {key[i], static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
         }
@@ -277,10 +281,8 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
             for (std::uint32_t k = end; k-- > begin;) {
                 if (k >= begin + prefetch_distance)
                     __builtin_prefetch(table + entry[k - prefetch_distance].cell, 1);
-                if (k >= begin + prefetch_distance / 2) {
-                    std::uint32_t const start = table[entry[k - prefetch_distance / 2].cell];
-                    __builtin_prefetch(spheres_.data() + (start - (start > 0 ? 1 : 0)), 1);
-                }
+                if (k >= begin + prefetch_distance / 2)
+                    fetch_destination(table[entry[k - prefetch_distance / 2].cell]);
                 file(--table[entry[k].cell], entry[k]); // now each cell's start
             }
         } else {

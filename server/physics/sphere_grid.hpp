@@ -135,6 +135,9 @@ private:
     };
 
     void resize_filed(std::uint32_t spheres);
+    /// While placing: fetches where the next sphere of a cell whose present start is `start`
+    /// will go (its spheres go in from the back).
+    void fetch_destination(std::uint32_t start) const;
     /// A function (rank, filed_sphere) that puts the sphere at that position of cell order,
     /// into the tables as resize_filed() left them.
     auto filer();
