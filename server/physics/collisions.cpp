@@ -217,41 +217,46 @@ bool bounce_off_walls(collision_settings const& settings, wall_set const& walls,
 /// The discrete wall pass over bodies [begin, end), each on its own: makes a pending drift,
 /// notes each body's free acceleration (unless free motion was a drift: then there is none),
 /// bounces the spheres found inside a wall off it, and notes the bodies' extent where it
-/// leaves them.
+/// leaves them. Compiled once for each kind of free motion (drift_pending, accelerated, as
+/// in collision_bodies), so that the loop over every body tests neither, and the extent is
+/// kept in registers until the end.
+template <bool drift_pending, bool accelerated>
 void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,
                             std::size_t begin, std::size_t end, wall_chunk& out)
 {
     out.moved.clear();
     out.responses = 0;
-    out.accelerated = false;
-    out.extent = {};
+    bool any_accelerated = false;
+    sphere_extent extent;
     for (std::size_t k = begin; k < end; ++k) {
         auto const i = static_cast<std::uint32_t>(k);
         vec3 start = vec3::Zero();
-        if (b.drift_pending) {
+        if constexpr (drift_pending) {
             start = b.x[i];
             b.x[i] += h * b.v[i];
         }
-        if (b.accelerated) {
+        if constexpr (accelerated) {
             // A body no force moved has no change, and then the quotient is zero too (0/h
             // keeps the sign of zero): the division, slow beside everything else here, is skipped.
             vec3 const change = b.v[i] - b.v0[i];
             bool const still = (change.array() == 0.0).all();
             free_a[i] = still ? change : vec3(change / h);
-            out.accelerated |= !still;
+            any_accelerated |= !still;
         }
         double const r = b.radius[i];
         if (!(r <= 0.0 || b.inverse_mass[i] == 0.0 || walls.clear(b.x[i], r))) {
-            body_path path = b.drift_pending ? body_path{start, b.v[i], vec3::Zero(), 0.0}
-                                             : body_path{b.x0[i], b.v0[i], b.accelerated ? free_a[i] : vec3::Zero(), 0.0};
+            body_path path = drift_pending ? body_path{start, b.v[i], vec3::Zero(), 0.0}
+                                           : body_path{b.x0[i], b.v0[i], accelerated ? free_a[i] : vec3::Zero(), 0.0};
             if (bounce_off_walls(settings, walls, path, b.x[i], r, h, out.responses)) {
                 b.v[i] = path.velocity_at(h);
                 out.moved.push_back(i);
             }
         }
-        out.extent.add(b.x[i], r);
+        extent.add(b.x[i], r);
     }
+    out.accelerated = any_accelerated;
+    out.extent = extent;
 }
 
 /// Discrete boxes: a sphere overlapping a box is pushed out along the contact normal and
@@ -575,7 +580,10 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     free_a.resize(bodies.accelerated ? n : 0);
     workspace.wall_chunks.resize(chunk_count(n));
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
-        resolve_walls_discrete(settings, wall_tests, bodies, h, free_a, begin, end, workspace.wall_chunks[c]);
+        auto const pass = bodies.drift_pending ? resolve_walls_discrete<true, false>
+                          : bodies.accelerated ? resolve_walls_discrete<false, true>
+                                               : resolve_walls_discrete<false, false>;
+        pass(settings, wall_tests, bodies, h, free_a, begin, end, workspace.wall_chunks[c]);
     });
     workspace.moved.clear();
     sphere_extent extent;
