@@ -98,10 +98,13 @@ auto sphere_grid::filer()
 
 // Why neighbouring cells suffice, in floating point: boxes [x − r, x + r] that overlap on an
 // axis have centres at most r₁ + r₂ <= 2·r_max apart plus the rounding of x ± r, and their
-// cells are computed from rounded quotients x/h. With h = 2·r_max·(1 + 8u·(2 + reach)),
-// reach = max|x| / (2·r_max) and u = 2^-53, the computed quotients of two such centres differ
-// by at most 1 (the rounding adds at most u·(4·reach + 1) relative to h), so their cells are
-// the same or adjacent on every axis. The same argument as uniform_grid.cpp's, for centres.
+// cells are computed from rounded products x·(1/h), 1/h itself rounded. With
+// h = 2·r_max·(1 + 8u·(2 + reach)), reach = max|x| / (2·r_max) and u = 2^-53, the computed
+// products of two such centres differ by at most 1: the rounding of 1/h scales both alike
+// (a factor 1 + u on their difference), and rounding each product and x ± r adds at most
+// u·(4·reach + 1) relative to h, so all of it stays below the 8u·(2 + reach) that h was
+// widened by. So their cells are the same or adjacent on every axis. The same argument as
+// uniform_grid.cpp's (which divides), for centres.
 bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
                         std::span<double const> inverse_mass, parallel_for* loops, slab_ready const& ready)
 {
@@ -142,11 +145,12 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     if (!(reach <= largest_cell_coordinate))
         return false;
     double const cell_size = diameter + diameter * (8.0 * unit_roundoff * (2.0 + reach)); // m
+    double const per_metre = 1.0 / cell_size; // a product is cheaper than a quotient, three per sphere
     std::array<std::int64_t, 3> lowest_cell, size;
     for (std::size_t k = 0; k < 3; ++k) {
         auto const axis = static_cast<Eigen::Index>(k);
-        lowest_cell[k] = floor_to_integer(all.lowest[axis] / cell_size);
-        size[k] = floor_to_integer(all.highest[axis] / cell_size) - lowest_cell[k] + (k == 2 ? 4 : 3);
+        lowest_cell[k] = floor_to_integer(all.lowest[axis] * per_metre);
+        size[k] = floor_to_integer(all.highest[axis] * per_metre) - lowest_cell[k] + (k == 2 ? 4 : 3);
     }
     // Keys number every cell of the padded grid; a table of them all is kept when it has no
     // more than a few entries per sphere.
@@ -172,7 +176,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     //    each slab; then where each chunk's share of a slab goes, after the earlier chunks'
     //    shares, so that every slab holds its spheres in slot order.
     auto const cell_of = [&](std::size_t i, Eigen::Index axis) {
-        return static_cast<std::uint64_t>(floor_to_integer(x[i][axis] / cell_size) -
+        return static_cast<std::uint64_t>(floor_to_integer(x[i][axis] * per_metre) -
                                           lowest_cell[static_cast<std::size_t>(axis)] + 1);
     };
     if (dense_ && !loops && *cells <= direct_sort_cells) {
