@@ -7,15 +7,21 @@
 
 #include <benchmark/benchmark.h>
 
+#include <algorithm>
 #include <cmath>
 #include <numbers>
+#include <numeric>
 #include <random>
+#include <vector>
 
 namespace {
 
 using namespace kugel::physics;
 
-world gas(collision_mode mode, std::int64_t n)
+/// The gas, its spheres added on the lattice row by row, so that neighbours start in
+/// neighbouring slots; or, `mixed`, in a shuffled order, as the slots of a gas that has run
+/// for a while are (it mixes, and bodies come and go).
+world gas(collision_mode mode, std::int64_t n, bool mixed = false)
 {
     world_settings settings;
     settings.collisions.mode = mode;
@@ -33,7 +39,11 @@ world gas(collision_mode mode, std::int64_t n)
     double const spacing = side / static_cast<double>(per_axis);
     std::mt19937_64 rng(1);
     std::uniform_real_distribution<double> u(-1.0, 1.0);
-    for (std::int64_t i = 0; i < n; ++i) {
+    std::vector<std::int64_t> order(static_cast<std::size_t>(n));
+    std::iota(order.begin(), order.end(), 0);
+    if (mixed)
+        std::shuffle(order.begin(), order.end(), std::mt19937_64(2));
+    for (std::int64_t const i : order) {
         vec3 const cell(static_cast<double>(i % per_axis), static_cast<double>((i / per_axis) % per_axis),
                         static_cast<double>(i / (per_axis * per_axis)));
         vec3 v(u(rng), u(rng), u(rng));
@@ -73,6 +83,17 @@ void gas_step_threads(benchmark::State& state, collision_mode mode)
     time_gas_steps(state, w, state.range(1));
 }
 
+// The discrete step of a mixed gas (arguments T, N: T = 1 lends no pool). A large world keeps
+// its bodies in cell order (world::bodies_worth_sorting): this is where that shows.
+void gas_step_mixed(benchmark::State& state)
+{
+    kugel::physics::thread_pool pool(static_cast<std::size_t>(state.range(0)));
+    world w = gas(collision_mode::discrete, state.range(1), true);
+    if (state.range(0) > 1)
+        w.set_parallel_for(&pool);
+    time_gas_steps(state, w, state.range(1));
+}
+
 BENCHMARK_CAPTURE(gas_step, discrete, collision_mode::discrete)
     ->RangeMultiplier(10)->Range(1000, 1000000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(gas_step, continuous, collision_mode::continuous)
@@ -80,5 +101,6 @@ BENCHMARK_CAPTURE(gas_step, continuous, collision_mode::continuous)
 
 BENCHMARK_CAPTURE(gas_step_threads, discrete, collision_mode::discrete)
     ->ArgsProduct({{2}, {1000, 10000, 100000, 1000000}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK(gas_step_mixed)->ArgsProduct({{1, 2}, {100000, 1000000}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace

@@ -12,6 +12,7 @@ foreach(test IN ITEMS
     physics_tests.DiscreteThreads.FarFlungSphereStaysDeterministic
     physics_tests.Broadphases.GiveTheSameSimulationBitForBit
     physics_tests.DiscreteThreads.AnyNumberOfThreadsGivesTheSameBits
+    physics_tests.SortedBodies.LargeWorldsKeepTheirBodiesInCellOrderAndTheirResults
     server_tests.HeadlessRun.GalaxyRunsWithTheTreeAndKeepsEnergy)
   set_tests_properties(${test} PROPERTIES COST 100)
 endforeach()

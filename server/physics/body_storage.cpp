@@ -105,6 +105,48 @@ bool body_storage::remove(body_id id)
     return true;
 }
 
+namespace {
+
+/// column[order[k]] for every k, as the new column; `spare` is left holding the old one,
+/// so that the next column of its type is gathered into memory already in use.
+template <class T>
+void gather(std::vector<T>& column, std::vector<T>& spare, std::span<std::uint32_t const> order,
+            parallel_for* loops)
+{
+    spare.resize(column.size());
+    run_chunks(loops, order.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+        for (std::size_t k = begin; k < end; ++k)
+            spare[k] = column[order[k]];
+    });
+    column.swap(spare);
+}
+
+} // namespace
+
+void body_storage::permute(std::span<std::uint32_t const> order, parallel_for* loops)
+{
+    std::size_t const n = size();
+    require(order.size() == n, "a permutation of the bodies must name every slot");
+    std::vector<std::uint8_t>& named = spare_bytes_;
+    named.assign(n, 0);
+    for (std::uint32_t const slot : order) {
+        require(slot < n, "a permutation of the bodies names a slot beyond the last");
+        require(named[slot] == 0, "a permutation of the bodies names a slot twice");
+        named[slot] = 1;
+    }
+    gather(positions_, spare_vectors_, order, loops);
+    gather(velocities_, spare_vectors_, order, loops);
+    gather(inverse_masses_, spare_numbers_, order, loops);
+    gather(radii_, spare_numbers_, order, loops);
+    gather(masses_, spare_numbers_, order, loops);
+    gather(charges_, spare_numbers_, order, loops);
+    gather(ids_, spare_ids_, order, loops);
+    run_chunks(loops, n, [&](std::size_t, std::size_t begin, std::size_t end) {
+        for (std::size_t k = begin; k < end; ++k)
+            sparse_[ids_[k].index].dense = static_cast<std::uint32_t>(k);
+    });
+}
+
 void body_storage::reserve(std::size_t n)
 {
     positions_.reserve(n);

@@ -1,9 +1,11 @@
 #pragma once
 
 #include "body_id.hpp"
+#include "parallel_for.hpp"
 #include "vec.hpp"
 
 #include <cstddef>
+#include <cstdint>
 #include <optional>
 #include <span>
 #include <vector>
@@ -25,8 +27,9 @@ struct body_desc
 double mass_from_density(double density, double radius);
 
 /// Bodies as a structure of arrays: one contiguous array per quantity, one dense slot per
-/// live body. Removal moves the last body into the hole, so slots change on removal but ids
-/// do not. Order is deterministic: same calls, same slots.
+/// live body. Removal moves the last body into the hole, and permute() reorders the slots, so
+/// slots change on removal and reordering but ids do not. Order is deterministic: same
+/// calls, same slots.
 class body_storage
 {
 public:
@@ -36,6 +39,11 @@ public:
 
     /// Removes a body; false when the id names no live body.
     bool remove(body_id id);
+
+    /// Moves every body to a new slot: the body in slot order[k] goes to slot k. `order` holds
+    /// each slot once (std::invalid_argument names what is wrong otherwise, and nothing moves).
+    /// Each quantity is moved on the threads of `loops`, when given.
+    void permute(std::span<std::uint32_t const> order, parallel_for* loops = nullptr);
 
     bool contains(body_id id) const { return slot_of(id).has_value(); }
 
@@ -78,6 +86,12 @@ private:
     std::vector<body_id> ids_;
 
     std::vector<slot_entry> sparse_;          ///< indexed by body_id::index
+    // permute() gathers each quantity into one of these and keeps the old array in its place:
+    // a world that sorts its bodies every few steps then reuses the same memory.
+    std::vector<vec3> spare_vectors_;
+    std::vector<double> spare_numbers_;
+    std::vector<body_id> spare_ids_;
+    std::vector<std::uint8_t> spare_bytes_;
     std::vector<std::uint32_t> free_indices_; ///< reused last-in first-out
 };
 

@@ -126,6 +126,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
 {
     slab_begin_.assign(1, 0);
     slab_cell_.assign(1, 0);
+    in_cell_order_ = false;
     std::size_t const n = x.size();
     if (n >= (std::size_t{1} << 28))
         return false; // the tables below count in 32 bits
@@ -158,6 +159,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     auto const cells = plane_cells ? checked_product(static_cast<std::uint64_t>(size[0]), *plane_cells) : std::nullopt;
     if (!cells || *cells >= std::numeric_limits<std::uint64_t>::max() / 2)
         return false;
+    in_cell_order_ = true; // from here on, the spheres are filed in cell order
     stride_y_ = static_cast<std::uint64_t>(size[2]);
     stride_x_ = *plane_cells;
     dense_ = *cells <= dense_cells_per_sphere * std::uint64_t{all.spheres} + 1024;
@@ -332,6 +334,7 @@ void sphere_grid::file_in_slot_order(std::span<vec3 const> x, std::span<double c
         if (radius[i] > 0.0)
             file(k++, {0, static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
     slab_begin_ = {0, spheres};
+    in_cell_order_ = false;
 }
 
 void sphere_grid::ranks(std::size_t n, std::vector<std::uint32_t>& out) const

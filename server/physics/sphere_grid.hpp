@@ -108,6 +108,10 @@ public:
                             std::span<double const> inverse_mass);
 
     std::size_t slab_count() const { return slab_begin_.size() - 1; }
+    /// True when the last build() filed the spheres in cell order (it did not decline).
+    bool in_cell_order() const { return in_cell_order_; }
+    /// How many spheres are filed.
+    std::uint32_t sphere_count() const { return slab_begin_.back(); }
     /// The first position in cell order of slab s; slab_begin(slab_count()) is the end.
     std::uint32_t slab_begin(std::size_t s) const { return slab_begin_[s]; }
     /// Which slab the sphere at this position of cell order is in.
@@ -146,6 +150,7 @@ private:
 
     void near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
 
+    bool in_cell_order_ = false;
     std::uint64_t stride_y_ = 0; ///< key step to the next y-cell (= cells in z, padded)
     std::uint64_t stride_x_ = 0; ///< key step to the next x-cell
     /// A table of every cell's start, when there are few cells per sphere; else the starts

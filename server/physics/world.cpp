@@ -170,6 +170,24 @@ void world::keep_step_start_and_integrate(double h)
     integrate(h);
 }
 
+void world::sort_bodies_by_cell()
+{
+    sphere_grid const& grid = collision_workspace_.grid;
+    std::size_t const n = bodies_.size();
+    if (!grid.in_cell_order())
+        return; // the grid declined the scene: its order is the slots'
+    cell_order_.clear();
+    cell_order_.reserve(n);
+    for (std::uint32_t k = 0; k < grid.sphere_count(); ++k)
+        cell_order_.push_back(grid.slot(k));
+    auto const radius = bodies_.radii();
+    for (std::uint32_t i = 0; i < n; ++i) // the bodies that are not spheres, after them
+        if (!(radius[i] > 0.0))
+            cell_order_.push_back(i);
+    bodies_.permute(cell_order_, loops());
+    workspace_.invalidate();
+}
+
 void world::step(double dt)
 {
     if (!std::isfinite(dt) || dt < 0.0)
@@ -193,6 +211,9 @@ void world::step(double dt)
                            h, collision_workspace_, collision_stats_, loops());
         workspace_.invalidate(); // contacts may have moved bodies
     }
+    if (colliding && settings_.collisions.mode == collision_mode::discrete &&
+        bodies_.size() >= bodies_worth_sorting && steps_ % sort_interval == 0)
+        sort_bodies_by_cell();
     // Compensated (Kahan) sum: after 10⁶ steps of 1/60 s the clock is still exact to an ulp.
     double const increment = dt - time_compensation_;
     double const sum = time_ + increment;

@@ -61,7 +61,21 @@ public:
 
     /// Advances the world by dt seconds (dt finite and >= 0, else std::invalid_argument).
     /// Throws singular_force_error when a force is singular; the world is then unchanged.
+    /// A world of bodies_worth_sorting bodies or more in discrete mode also moves its bodies
+    /// to new slots on every sort_interval-th step (ids stay; see bodies_worth_sorting).
     void step(double dt);
+
+    /// From this many bodies, a world in discrete mode keeps its bodies' slots in the
+    /// collision grid's cell order (sphere_grid.hpp), sorting them again on every
+    /// sort_interval-th step (the first included): the discrete step then reads and writes the
+    /// bodies nearly in sequence, where slots in no order sent it to memory for nearly every
+    /// sphere. A mixed gas of 10^6 spheres (bench gas_step_mixed) stepped 8 % faster so on
+    /// one thread and 6 % on two, sorting included (a sort there takes about 18 ms). At 10^5
+    /// the bodies nearly fit the last cache, and sorting saved what it cost.
+    static constexpr std::size_t bodies_worth_sorting = 128 * 1024;
+    /// Every 16th or every 32nd step measured the same at 10^6; the order decays slowly, as
+    /// spheres move a fraction of a cell per step.
+    static constexpr std::uint64_t sort_interval = 16;
 
     /// The accelerations of all bodies at positions x (what the integrator calls).
     void accelerations(std::span<vec3 const> x, std::span<vec3> a) const;
@@ -92,6 +106,8 @@ public:
 
 private:
     void integrate(double h);
+    /// Moves the bodies into the last collision step's cell order (bodies_worth_sorting).
+    void sort_bodies_by_cell();
     void keep_step_start_and_integrate(double h); ///< x₀, v₀ for the collisions, then integrate
 
     world_settings settings_;
@@ -103,6 +119,7 @@ private:
     mutable collision_workspace collision_workspace_;
     collision_stats collision_stats_;
     std::vector<vec3> step_start_x_, step_start_v_;
+    std::vector<std::uint32_t> cell_order_; ///< scratch for sort_bodies_by_cell()
     parallel_for* loops_ = nullptr; ///< lent by the owner, or none
     std::size_t share_from_ = bodies_worth_sharing; ///< loops_ is used from this many bodies
     /// loops_ when the world holds enough bodies for it to pay, else none.

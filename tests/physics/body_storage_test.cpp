@@ -5,6 +5,8 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <string>
+#include <vector>
 
 namespace kugel::physics {
 namespace {
@@ -99,6 +101,62 @@ TEST(BodyStorage, RefusesBadBodiesAndNamesTheField)
     refuses({vec3::Zero(), vec3(1, 0, 0), 1.0, 0.0, 0.0, true}, "velocity");
     refuses({vec3::Zero(), vec3::Zero(), 1.0, 0.0, nan, false}, "charge");
     EXPECT_TRUE(bodies.empty()); // nothing half-added
+}
+
+// permute() moves every quantity of a body together, and its id follows it: the body in slot
+// order[k] is in slot k after, and slot_of() finds it there.
+TEST(BodyStorage, PermuteMovesEveryQuantityAndKeepsIds)
+{
+    body_storage bodies;
+    std::vector<body_id> ids;
+    for (int i = 0; i < 5; ++i)
+        ids.push_back(bodies.add({vec3(i, 10 + i, 0), vec3(0, 0, i), 1.0 + i, 0.1 * i, -1.0 * i, false}));
+    ASSERT_TRUE(bodies.remove(ids[1])); // a hole, filled by the last body: slots are 0 4 2 3
+    std::vector<std::uint32_t> const order = {3, 0, 2, 1};
+    std::vector<body_desc> before;
+    std::vector<body_id> ids_before;
+    for (std::size_t slot = 0; slot < bodies.size(); ++slot) {
+        before.push_back(bodies.describe(slot));
+        ids_before.push_back(bodies.ids()[slot]);
+    }
+    bodies.permute(order);
+    ASSERT_EQ(bodies.size(), 4U);
+    for (std::size_t k = 0; k < order.size(); ++k) {
+        body_desc const moved = bodies.describe(k);
+        body_desc const& was = before[order[k]];
+        EXPECT_EQ(moved.position, was.position);
+        EXPECT_EQ(moved.velocity, was.velocity);
+        EXPECT_EQ(moved.mass, was.mass);
+        EXPECT_EQ(moved.radius, was.radius);
+        EXPECT_EQ(moved.charge, was.charge);
+        EXPECT_EQ(bodies.inverse_masses()[k], 1.0 / was.mass);
+        EXPECT_EQ(bodies.ids()[k], ids_before[order[k]]);
+        EXPECT_EQ(bodies.slot_of(ids_before[order[k]]).value_or(99), k);
+    }
+    EXPECT_FALSE(bodies.contains(ids[1]));
+    // The ids still work: removing one moves the last body into its slot, as before.
+    ASSERT_TRUE(bodies.remove(ids[3]));
+    EXPECT_EQ(bodies.positions()[*bodies.slot_of(ids[4])].x(), 4.0);
+}
+
+TEST(BodyStorage, PermuteRefusesWhatIsNotAPermutationAndMovesNothing)
+{
+    body_storage bodies;
+    for (int i = 0; i < 3; ++i)
+        bodies.add(at(i));
+    auto refuses = [&](std::vector<std::uint32_t> const& order, std::string const& words) {
+        try {
+            bodies.permute(order);
+            ADD_FAILURE() << "accepted a bad order naming " << words;
+        } catch (std::invalid_argument const& e) {
+            EXPECT_NE(std::string(e.what()).find(words), std::string::npos) << e.what();
+        }
+        for (std::size_t slot = 0; slot < 3; ++slot)
+            EXPECT_EQ(bodies.positions()[slot].x(), static_cast<double>(slot));
+    };
+    refuses({0, 1}, "every slot");
+    refuses({0, 1, 3}, "beyond the last");
+    refuses({0, 2, 2}, "twice");
 }
 
 } // namespace

@@ -525,6 +525,66 @@ TEST(DiscreteThreads, RebuiltWorldStepsOnLikeTheOriginal)
     EXPECT_EQ(state_hash(rebuilt), state_hash(original));
 }
 
+// A world of world::bodies_worth_sorting bodies or more in discrete mode moves its bodies into
+// the grid's cell order (x-major) on its first step and every sort_interval-th after. The
+// gas is added with x varying fastest, so before the sort x falls back by the box's width
+// every row; after it, x never falls back by more than the spheres' pushes and a cell.
+// Every id keeps its body, and the results are still a function of the state alone: with
+// two threads the same bits, and a world rebuilt from another's bodies in slot order, with
+// its clock (as a checkpoint restores one), steps on like it through the next sort.
+TEST(SortedBodies, LargeWorldsKeepTheirBodiesInCellOrderAndTheirResults)
+{
+    int const n = static_cast<int>(world::bodies_worth_sorting);
+    world original = discrete_gas(n);
+    std::vector<vec3> added(original.bodies().positions().begin(), original.bodies().positions().end());
+    std::vector<body_id> ids(original.bodies().ids().begin(), original.bodies().ids().end());
+    auto largest_fall_in_x = [](world const& w) {
+        double fall = 0.0;
+        auto const x = w.bodies().positions();
+        for (std::size_t k = 1; k < x.size(); ++k)
+            fall = std::max(fall, x[k - 1].x() - x[k].x());
+        return fall;
+    };
+    double const diameter = 0.1;
+    ASSERT_GT(largest_fall_in_x(original), 10.0 * diameter);
+    double const dt = 1.0 / 60.0;
+    original.step(dt);
+    EXPECT_LT(largest_fall_in_x(original), 2.0 * diameter);
+    // Each id names the body it named: one step from where it was added, at most 1 m/s·√3·dt
+    // away (plus a push far below that).
+    double farthest = 0.0;
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+        auto const slot = original.bodies().slot_of(ids[i]);
+        ASSERT_TRUE(slot.has_value());
+        farthest = std::max(farthest, (original.bodies().positions()[*slot] - added[i]).norm());
+    }
+    EXPECT_LT(farthest, 2.0 * dt);
+    EXPECT_NE(original.bodies().ids()[1], ids[1]); // the slots did change
+
+    for (int i = 1; i < 10; ++i)
+        original.step(dt);
+    world rebuilt(original.settings());
+    for (wall const& w : original.walls())
+        rebuilt.add_wall(w);
+    for (std::size_t slot = 0; slot < original.bodies().size(); ++slot)
+        rebuilt.add_body(original.bodies().describe(slot));
+    rebuilt.restore_clock(original.time(), original.time_compensation(), original.steps());
+    thread_pool pool(2);
+    world shared = discrete_gas(n);
+    shared.set_parallel_for(&pool);
+    for (int i = 0; i < 10; ++i)
+        shared.step(dt);
+    for (int i = 0; i < 2 * static_cast<int>(world::sort_interval); ++i) {
+        original.step(dt);
+        rebuilt.step(dt);
+        shared.step(dt);
+    }
+    EXPECT_GT(original.collisions().sphere_contacts, 10000U);
+    EXPECT_EQ(state_hash(rebuilt), state_hash(original));
+    EXPECT_EQ(state_hash(shared), state_hash(original));
+    EXPECT_EQ(original.escaped(), 0U);
+}
+
 // One sphere flung far away: the grid holds the sparse scene (it searches its sorted keys),
 // and one flung beyond 2^47 cells from the origin makes it decline, so that the step falls
 // back to the broadphase in slot order. Either way every broadphase and any pool give the
