@@ -410,7 +410,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
 {
     using ranks4 = std::uint32_t __attribute__((vector_size(16)));
     constexpr std::uint32_t gather_width = 4; // runs shorter than this are gathered in one write
-    constexpr std::uint32_t most_gathered = 16; // where the writes stop: past it, runs are long
+    constexpr std::uint32_t most_gathered = 5 * (gather_width - 1); // where the writes start at most
     ranks4 const ascending = {0, 1, 2, 3};
     std::array<std::uint32_t, most_gathered + gather_width> gathered;
     std::vector<std::uint32_t> spilled;
@@ -448,7 +448,9 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
             std::memcpy(gathered.data() + filled, &run, sizeof run);
             std::uint32_t const length = end - begin;
             any_length |= length; // below gather_width (a power of 2) only if all are
-            filled = std::min(filled + length, most_gathered);
+            // A longer run spoils the list anyway: only the low bits count, which keeps the
+            // writes inside it (five runs of at most three) without a comparison per run.
+            filled += length & (gather_width - 1);
         };
         gather(p + 1, cell[2]);
         gather(cell[row_y], cell[row_y + 3]);
