@@ -421,16 +421,26 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
             list.push_back(k);
     };
 
-    // The velocity passes work on copies of the contacts' spheres' velocities (and free
-    // accelerations) in cell order, taken once from the body slots and put back after: the
-    // passes then read memory nearly in sequence, where reading by slot waited on a cache miss
-    // for most contacts in every pass. The spheres in contacts that touch a wall are listed:
-    // the velocity passes stop them at it. Positions do not change in those passes, so the list
-    // holds for all of them.
-    auto& v = ws.velocity_by_rank;
-    auto& a = ws.acceleration_by_rank;
-    v.resize(spheres);
-    a.resize(free_a.any() ? spheres : 0);
+    // The velocity passes work on copies of the contacts' spheres' velocities and inverse
+    // masses (and free accelerations), taken once from the body slots and put back after,
+    // side by side in the order they were listed: the passes then read a few megabytes at
+    // 10^6 spheres, where reading by slot waited on memory for most contacts in every pass
+    // (and copies by position in cell order, scattered over all spheres, for many). Each slab
+    // lists its contacts' spheres that no slab listed before it, into a range of the copies
+    // of its own (room for two per contact), so slabs of one parity list at the same time.
+    // The spheres in contacts that touch a wall are listed too: the velocity passes stop them
+    // at it. Positions do not change in those passes, so that list, and the contacts' normals,
+    // hold for all of them.
+    std::uint32_t copies = 0;
+    for (contact_slab& slab : ws.slabs) {
+        slab.first_copied = copies;
+        copies += 2 * static_cast<std::uint32_t>(slab.contacts.size());
+    }
+    auto& moving = ws.moving;
+    auto& a = ws.moving_acceleration;
+    moving.resize(copies);
+    a.resize(free_a.any() ? copies : 0);
+    ws.listed_at.resize(spheres);
     by_parity([&](contact_slab& slab) {
         slab.copied.clear();
         slab.pushed.clear();
@@ -443,15 +453,17 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
         for (std::size_t listed = 0; listed < slab.copied.size(); ++listed) {
             std::uint32_t const k = slab.copied[listed];
             std::uint32_t const i = slot_of(k);
+            auto const c = static_cast<std::uint32_t>(slab.first_copied + listed);
             fetch_ahead(slab.copied, listed, [&](std::uint32_t later) { return &b.v[slot_of(later)]; });
-            v[k] = b.v[i];
+            ws.listed_at[k] = c;
+            moving[c] = {b.v[i], packed(k).inverse_mass};
             if (free_a.any())
-                a[k] = free_a[i];
+                a[c] = free_a[i];
             if (!walls.beyond(packed(k).x, packed(k).radius * (1.0 + 1e-9)))
                 slab.touched.push_back(k);
         }
     });
-    auto const acceleration = [&](std::uint32_t k) { return free_a.any() ? a[k] : vec3::Zero(); };
+    auto const acceleration = [&](std::uint32_t c) { return free_a.any() ? a[c] : vec3::Zero(); };
 
     auto normal_of = [&](std::uint32_t p, std::uint32_t q, double& gap) {
         vec3 const d = packed(p).x - packed(q).x;
@@ -459,36 +471,42 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
         gap = distance - (packed(p).radius + packed(q).radius);
         return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
     };
+    // The contacts as positions among the copies, and their normals: found once.
+    each_slab([&](contact_slab& slab) {
+        slab.moving_pairs.resize(slab.contacts.size());
+        slab.normals.resize(slab.contacts.size());
+        for (std::size_t k = 0; k < slab.contacts.size(); ++k) {
+            sphere_pair const& c = slab.contacts[k];
+            slab.moving_pairs[k] = {ws.listed_at[c.a], ws.listed_at[c.b]};
+            double gap = 0.0;
+            slab.normals[k] = normal_of(c.a, c.b, gap);
+        }
+    });
     for (int pass = 0; pass < std::max(settings.velocity_iterations, 1); ++pass) {
         by_parity([&](contact_slab& slab) {
             slab.changed = false;
-            // The contacts' normals, at positions these passes do not change: found once.
-            if (pass == 0) {
-                slab.normals.resize(slab.contacts.size());
-                for (std::size_t k = 0; k < slab.contacts.size(); ++k) {
-                    double gap = 0.0;
-                    slab.normals[k] = normal_of(slab.contacts[k].a, slab.contacts[k].b, gap);
-                }
-            }
-            for (std::size_t k = 0; k < slab.contacts.size(); ++k) {
-                auto const [i, j] = slab.contacts[k];
+            for (std::size_t k = 0; k < slab.moving_pairs.size(); ++k) {
+                auto const [i, j] = slab.moving_pairs[k];
                 vec3 const& n = slab.normals[k];
-                double const closing = (v[i] - v[j]).dot(n);
+                double const closing = (moving[i].v - moving[j].v).dot(n);
                 if (closing >= 0.0)
                     continue;
                 double const threshold = detail::rest_threshold(
                     settings, free_a.any() ? vec3(a[i] - a[j]) : vec3::Zero(), n, h);
                 double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
-                auto const w = collide_spheres(v[i], packed(i).inverse_mass, v[j], packed(j).inverse_mass, n, e);
-                v[i] = w.first;
-                v[j] = w.second;
+                auto const w = collide_spheres(moving[i].v, moving[i].inverse_mass, moving[j].v,
+                                               moving[j].inverse_mass, n, e);
+                moving[i].v = w.first;
+                moving[j].v = w.second;
                 slab.responses += pass == 0 ? 1U : 0U;
                 slab.changed = true;
             }
         });
         each_slab([&](contact_slab& slab) {
-            for (std::uint32_t k : slab.touched)
-                slab.changed |= meet_touched_walls(walls, packed(k), v[k], acceleration(k), settings, h);
+            for (std::uint32_t k : slab.touched) {
+                std::uint32_t const c = ws.listed_at[k];
+                slab.changed |= meet_touched_walls(walls, packed(k), moving[c].v, acceleration(c), settings, h);
+            }
         });
         // A pass that changed no velocity leaves the next one the same state: it would
         // change none either.
@@ -499,7 +517,7 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
         for (std::size_t listed = 0; listed < slab.copied.size(); ++listed) {
             fetch_ahead(slab.copied, listed, [&](std::uint32_t later) { return &b.v[slot_of(later)]; });
             std::uint32_t const k = slab.copied[listed];
-            b.v[slot_of(k)] = v[k];
+            b.v[slot_of(k)] = moving[slab.first_copied + listed].v;
         }
     });
     for (int pass = 0; pass < settings.position_iterations; ++pass) {

@@ -104,6 +104,8 @@ struct contact_slab
     std::vector<sphere_pair> contacts;  ///< the near pairs that touch, in the same order
     std::vector<vec3> normals;          ///< each contact's unit normal, from b to a
     std::vector<std::uint32_t> copied;  ///< the spheres of its contacts that this slab lists
+    std::uint32_t first_copied = 0;     ///< where its copies start in the workspace's `moving`
+    std::vector<sphere_pair> moving_pairs; ///< its contacts, as positions in `moving`
     std::vector<std::uint32_t> touched; ///< the spheres a pass changed that this slab lists
     std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved
     std::uint64_t responses = 0;        ///< sphere–sphere responses
@@ -135,8 +137,15 @@ public:
     std::vector<std::uint32_t> ranks;   ///< discrete mode: position in cell order by body slot
     std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
     std::vector<std::uint8_t> pushed;   ///< discrete mode: 1 for a sphere a position pass moved
-    std::vector<vec3> velocity_by_rank; ///< discrete mode: contact spheres' v in cell order
-    std::vector<vec3> acceleration_by_rank; ///< discrete mode: and their free accelerations
+    /// Discrete mode: a contact sphere as the velocity passes see it.
+    struct moving_sphere
+    {
+        vec3 v;              ///< m/s
+        double inverse_mass; ///< 1/kg
+    };
+    std::vector<moving_sphere> moving;          ///< discrete mode: the contacts' spheres, as listed
+    std::vector<vec3> moving_acceleration;      ///< discrete mode: and their free accelerations
+    std::vector<std::uint32_t> listed_at;       ///< discrete mode: where in `moving`, by cell order
     std::vector<std::uint32_t> moved;   ///< discrete mode: the spheres walls and boxes moved
     std::vector<body_path> paths;       ///< continuous mode: each body's path in this step
     std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
