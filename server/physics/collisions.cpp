@@ -414,7 +414,6 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
         run_loop(loops, slabs, [&](std::size_t s) { work(ws.slabs[s]); });
     };
     ws.mark.assign(spheres, 0);
-    ws.pushed.resize(spheres); // all 0: each use clears what it set
     std::uint32_t stamp = 1;
     auto const list_once = [&](std::vector<std::uint32_t>& list, std::uint32_t k) {
         if (std::exchange(ws.mark[k], stamp) != stamp)
@@ -580,14 +579,19 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
                 }
             }
         });
+        // The spheres moved meet the walls; the body slot is looked up only for the few that
+        // touch one. Each goes on the slab's list to be written back, once for each pass that
+        // moved it (writing the last position twice costs less than remembering whether it
+        // is listed already: a sphere in a table of all, in no order, at 10^6 spheres).
         each_slab([&](contact_slab& slab) {
             for (std::uint32_t k : slab.touched) {
+                packed_sphere& p = packed(k);
+                if (walls.clear(p.x, p.radius))
+                    continue;
                 std::uint32_t const i = slot_of(k);
-                push_out_and_meet_walls(walls, packed(k).x, b.v[i], packed(k).radius,
-                                        packed(k).inverse_mass, free_a[i], settings, h);
-                if (std::exchange(ws.pushed[k], std::uint8_t{1}) == 0)
-                    slab.pushed.push_back(k);
+                push_out_and_meet_walls(walls, p.x, b.v[i], p.radius, p.inverse_mass, free_a[i], settings, h);
             }
+            slab.pushed.insert(slab.pushed.end(), slab.touched.begin(), slab.touched.end());
         });
         if (std::all_of(ws.slabs.begin(), ws.slabs.end(),
                         [](contact_slab const& slab) { return slab.touched.empty(); }))
@@ -598,7 +602,6 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
             fetch_ahead(slab.pushed, listed, [&](std::uint32_t later) { return &b.x[slot_of(later)]; });
             std::uint32_t const k = slab.pushed[listed];
             b.x[slot_of(k)] = packed(k).x;
-            ws.pushed[k] = 0;
         }
     });
     for (contact_slab const& slab : ws.slabs)

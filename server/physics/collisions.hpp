@@ -107,7 +107,7 @@ struct contact_slab
     std::uint32_t first_copied = 0;     ///< where its copies start in the workspace's `moving`
     std::vector<sphere_pair> moving_pairs; ///< its contacts, as positions in `moving`
     std::vector<std::uint32_t> touched; ///< the spheres a pass changed that this slab lists
-    std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved
+    std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved (once per pass)
     std::uint64_t responses = 0;        ///< sphere–sphere responses
     bool changed = false;               ///< the last velocity pass changed a velocity
 };
@@ -136,7 +136,6 @@ public:
     std::vector<wall_chunk> wall_chunks; ///< discrete mode: one per chunk of bodies
     std::vector<std::uint32_t> ranks;   ///< discrete mode: position in cell order by body slot
     std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
-    std::vector<std::uint8_t> pushed;   ///< discrete mode: 1 for a sphere a position pass moved
     /// Discrete mode: a contact sphere as the velocity passes see it.
     struct moving_sphere
     {
