@@ -556,7 +556,7 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
                     separate(near[k]);
                 return;
             }
-            constexpr std::size_t block = 64;
+            constexpr std::size_t block = 16;
             std::array<std::uint32_t, block> due;
             std::uint32_t const* const mark = ws.mark.data();
             for (std::size_t first = 0; first < pairs; first += block) {
