@@ -219,7 +219,7 @@ bool bounce_off_walls(collision_settings const& settings, wall_set const& walls,
 /// bounces the spheres found inside a wall off it, and notes the bodies' extent where it
 /// leaves them. Compiled once for each kind of free motion (drift_pending, accelerated, as
 /// in collision_bodies), so that the loop over every body tests neither, and the extent is
-/// kept in registers until the end.
+/// kept in a local until the end, not in `out`.
 template <bool drift_pending, bool accelerated>
 void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,
