@@ -582,7 +582,8 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
         // The spheres moved meet the walls; the body slot is looked up only for the few that
         // touch one. Each goes on the slab's list to be written back, once for each pass that
         // moved it (writing the last position twice costs less than remembering whether it
-        // is listed already: a sphere in a table of all, in no order, at 10^6 spheres).
+        // is listed already: a sphere in a table of all, in no order, at 10^6 spheres), so a
+        // sphere two neighbouring slabs moved is on both their lists.
         each_slab([&](contact_slab& slab) {
             for (std::uint32_t k : slab.touched) {
                 packed_sphere& p = packed(k);
@@ -597,7 +598,9 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
                         [](contact_slab const& slab) { return slab.touched.empty(); }))
             break;
     }
-    each_slab([&](contact_slab& slab) {
+    // A sphere may be on the lists of two slabs (each moved it in some pass), always
+    // neighbours: so the even slabs write back, then the odd ones, never one body at once.
+    by_parity([&](contact_slab& slab) {
         for (std::size_t listed = 0; listed < slab.pushed.size(); ++listed) {
             fetch_ahead(slab.pushed, listed, [&](std::uint32_t later) { return &b.x[slot_of(later)]; });
             std::uint32_t const k = slab.pushed[listed];
