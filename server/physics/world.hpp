@@ -71,8 +71,9 @@ public:
     /// bodies nearly in sequence, where slots in no order sent it to memory for nearly every
     /// sphere. A mixed gas of 10^6 spheres (bench gas_step_mixed) stepped 8 % faster so on
     /// one thread and 6 % on two, sorting included (a sort there takes about 18 ms). At 10^5
-    /// the bodies nearly fit the last cache, and sorting saved what it cost.
-    static constexpr std::size_t bodies_worth_sorting = 128 * 1024;
+    /// the bodies outgrow a core's own cache, and the step was 7 % faster with its spheres
+    /// added row by row and 12 % with them shuffled (a sort there takes about 2 ms).
+    static constexpr std::size_t bodies_worth_sorting = 64 * 1024;
     /// Every 16th or every 32nd step measured the same at 10^6; the order decays slowly, as
     /// spheres move a fraction of a cell per step.
     static constexpr std::uint64_t sort_interval = 16;
