@@ -217,12 +217,13 @@ bool bounce_off_walls(collision_settings const& settings, wall_set const& walls,
 /// The discrete wall pass over bodies [begin, end), each on its own: makes a pending drift,
 /// notes each body's free acceleration (unless free motion was a drift: then there is none),
 /// bounces the spheres found inside a wall off it, and notes the bodies' extent where it
-/// leaves them. Compiled once for each kind of free motion (drift_pending, accelerated, as
+/// leaves them and, given a frame, the key of each sphere's cell there. Compiled once for each kind of free motion (drift_pending, accelerated, as
 /// in collision_bodies), so that the loop over every body tests neither, and the extent is
 /// kept in a local until the end, not in `out`.
 template <bool drift_pending, bool accelerated>
 void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,
+                            cell_frame const* frame, std::span<std::uint64_t> keys,
                             std::size_t begin, std::size_t end, wall_chunk& out)
 {
     out.moved.clear();
@@ -254,6 +255,8 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
             }
         }
         extent.add(b.x[i], r);
+        if (frame && r > 0.0)
+            keys[i] = frame->key(b.x[i]);
     }
     out.accelerated = any_accelerated;
     out.extent = extent;
@@ -331,8 +334,8 @@ void fetch_ahead(std::vector<std::uint32_t> const& list, std::size_t at, Address
 /// one slab holds every pair, in slot order. `extent` is the bodies', when known. Returns the
 /// number of slabs.
 std::size_t find_near_pairs(collision_settings const& settings, collision_bodies const& b,
-                            std::optional<sphere_extent> const& extent, collision_workspace& ws,
-                            parallel_for* loops)
+                            std::optional<sphere_extent> const& extent, cell_keys const* keyed,
+                            collision_workspace& ws, parallel_for* loops)
 {
     sphere_grid& grid = ws.grid;
     bool const own_pairs = settings.broadphase == broadphase_kind::uniform_grid;
@@ -341,7 +344,7 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
         grid.near_pairs(s, ws.slabs[s].near, ws.slabs[s].contacts);
     };
     sphere_grid::slab_ready const none;
-    bool const gridded = extent ? grid.build(b.x, b.radius, b.inverse_mass, *extent, loops, own_pairs ? pairs_of : none)
+    bool const gridded = extent ? grid.build(b.x, b.radius, b.inverse_mass, *extent, loops, own_pairs ? pairs_of : none, keyed)
                                 : grid.build(b.x, b.radius, b.inverse_mass, loops, own_pairs ? pairs_of : none);
     if (!gridded)
         grid.file_in_slot_order(b.x, b.radius, b.inverse_mass);
@@ -397,10 +400,10 @@ std::size_t find_near_pairs(collision_settings const& settings, collision_bodies
 /// move the packed copies, which go back to the bodies at the end.
 void resolve_pairs_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, free_accelerations free_a,
-                            std::optional<sphere_extent> const& extent, collision_workspace& ws,
-                            collision_stats& stats, parallel_for* loops)
+                            std::optional<sphere_extent> const& extent, cell_keys const* keyed,
+                            collision_workspace& ws, collision_stats& stats, parallel_for* loops)
 {
-    std::size_t const slabs = find_near_pairs(settings, b, extent, ws, loops);
+    std::size_t const slabs = find_near_pairs(settings, b, extent, keyed, ws, loops);
     sphere_grid& grid = ws.grid;
     auto const packed = [&](std::uint32_t k) -> packed_sphere& { return grid.sphere(k); };
     auto const slot_of = [&](std::uint32_t k) { return grid.slot(k); };
@@ -636,11 +639,21 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     auto& free_a = workspace.free_acceleration;
     free_a.resize(bodies.accelerated ? n : 0);
     workspace.wall_chunks.resize(chunk_count(n));
+    // Where the grid will sort on one thread and the bodies' extent is known at the end of
+    // this pass (no box moves a sphere after it), the pass also numbers the spheres' cells in
+    // the grid's last frame, sparing the grid another pass over the bodies when the frame
+    // holds (sphere_grid::keying_frame).
+    std::optional<cell_frame> const keying_frame =
+        !loops && obstacles.empty() && settings.broadphase == broadphase_kind::uniform_grid
+            ? workspace.grid.keying_frame()
+            : std::nullopt;
+    workspace.cell_keys.resize(keying_frame ? n : 0);
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
         auto const pass = bodies.drift_pending ? resolve_walls_discrete<true, false>
                           : bodies.accelerated ? resolve_walls_discrete<false, true>
                                                : resolve_walls_discrete<false, false>;
-        pass(settings, wall_tests, bodies, h, free_a, begin, end, workspace.wall_chunks[c]);
+        pass(settings, wall_tests, bodies, h, free_a, keying_frame ? &*keying_frame : nullptr,
+             workspace.cell_keys, begin, end, workspace.wall_chunks[c]);
     });
     workspace.moved.clear();
     sphere_extent extent;
@@ -661,7 +674,10 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     }
     // Boxes move spheres after the wall pass noted where they were.
     auto const known_extent = obstacles.empty() ? std::optional<sphere_extent>(extent) : std::nullopt;
-    resolve_pairs_discrete(settings, wall_tests, bodies, h, free_motion, known_extent, workspace, stats, loops);
+    std::optional<cell_keys> const keyed =
+        keying_frame ? std::optional<cell_keys>({workspace.cell_keys, *keying_frame}) : std::nullopt;
+    resolve_pairs_discrete(settings, wall_tests, bodies, h, free_motion, known_extent,
+                           keyed ? &*keyed : nullptr, workspace, stats, loops);
 
     // No sphere is left inside a wall: the spheres walls and boxes moved are clamped here, once
     // each, and the position passes clamp every sphere they move after each pass (the velocity

@@ -135,6 +135,7 @@ public:
     std::vector<contact_slab> slabs;    ///< discrete mode: one per slab of the grid
     std::vector<wall_chunk> wall_chunks; ///< discrete mode: one per chunk of bodies
     std::vector<std::uint32_t> ranks;   ///< discrete mode: position in cell order by body slot
+    std::vector<std::uint64_t> cell_keys; ///< discrete mode: cell key by body slot, from the wall pass
     std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
     /// Discrete mode: a contact sphere as the velocity passes see it.
     struct moving_sphere

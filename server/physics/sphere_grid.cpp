@@ -34,13 +34,6 @@ constexpr std::uint64_t direct_sort_cells = std::uint64_t{1} << 20;
 /// in no order. 16 and 32 measured the same; without, a step of 10^5 spheres was 8 % slower.
 constexpr std::size_t prefetch_distance = 16;
 
-/// floor(q) for |q| < 2^53, without a library call.
-std::int64_t floor_to_integer(double q)
-{
-    auto const truncated = static_cast<std::int64_t>(q);
-    return q < static_cast<double>(truncated) ? truncated - 1 : truncated;
-}
-
 /// Replaces each count in [first, last) by the sum of `start` and the counts up to and
 /// including it: each cell's end, from the cells' counts. A gas has five cells per sphere, so
 /// this runs over more numbers than any other loop of the grid; four at a time where the
@@ -99,12 +92,14 @@ auto sphere_grid::filer()
 // Why neighbouring cells suffice, in floating point: boxes [x − r, x + r] that overlap on an
 // axis have centres at most r₁ + r₂ <= 2·r_max apart plus the rounding of x ± r, and their
 // cells are computed from rounded products x·(1/h), 1/h itself rounded. With
-// h = 2·r_max·(1 + 8u·(2 + reach)), reach = max|x| / (2·r_max) and u = 2^-53, the computed
+// h = 2·r_max·(1 + 8u·(2 + reach)), reach >= max|x| / (2·r_max) and u = 2^-53, the computed
 // products of two such centres differ by at most 1: the rounding of 1/h scales both alike
 // (a factor 1 + u on their difference), and rounding each product and x ± r adds at most
 // u·(4·reach + 1) relative to h, so all of it stays below the 8u·(2 + reach) that h was
 // widened by. So their cells are the same or adjacent on every axis. The same argument as
-// uniform_grid.cpp's (which divides), for centres.
+// uniform_grid.cpp's (which divides), for centres. The grid takes for reach the power of two
+// at or above max|x| / (2·r_max), so that its cells stay the same while the scene's extent
+// changes a little: a gas numbers its cells in the same frame step after step.
 bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
                         std::span<double const> inverse_mass, parallel_for* loops, slab_ready const& ready)
 {
@@ -122,11 +117,12 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
 
 bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
                         std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops,
-                        slab_ready const& ready)
+                        slab_ready const& ready, cell_keys const* keyed)
 {
     slab_begin_.assign(1, 0);
     slab_cell_.assign(1, 0);
     in_cell_order_ = false;
+    keying_frame_.reset();
     std::size_t const n = x.size();
     if (n >= (std::size_t{1} << 28))
         return false; // the tables below count in 32 bits
@@ -145,7 +141,8 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         std::max(all.lowest.cwiseAbs().maxCoeff(), all.highest.cwiseAbs().maxCoeff()) / diameter;
     if (!(reach <= largest_cell_coordinate))
         return false;
-    double const cell_size = diameter + diameter * (8.0 * unit_roundoff * (2.0 + reach)); // m
+    double const reach_bound = std::exp2(std::ceil(std::log2(std::max(reach, 1.0)))); // exact
+    double const cell_size = diameter + diameter * (8.0 * unit_roundoff * (2.0 + reach_bound)); // m
     double const per_metre = 1.0 / cell_size; // a product is cheaper than a quotient, three per sphere
     std::array<std::int64_t, 3> lowest_cell, size;
     for (std::size_t k = 0; k < 3; ++k) {
@@ -162,6 +159,8 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     in_cell_order_ = true; // from here on, the spheres are filed in cell order
     stride_y_ = static_cast<std::uint64_t>(size[2]);
     stride_x_ = *plane_cells;
+    // Coordinate 0 is the padding cell below the lowest occupied one.
+    cell_frame const frame{per_metre, {lowest_cell[0] - 1, lowest_cell[1] - 1, lowest_cell[2] - 1}, stride_x_, stride_y_};
     dense_ = *cells <= dense_cells_per_sphere * std::uint64_t{all.spheres} + 1024;
 
     // 3. Slabs of equal numbers of x-cells; the first and last also hold the padding cells,
@@ -177,10 +176,6 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     // 4. Each sphere's cell key and slab, and how many spheres each chunk of bodies has in
     //    each slab; then where each chunk's share of a slab goes, after the earlier chunks'
     //    shares, so that every slab holds its spheres in slot order.
-    auto const cell_of = [&](std::size_t i, Eigen::Index axis) {
-        return static_cast<std::uint64_t>(floor_to_integer(x[i][axis] * per_metre) -
-                                          lowest_cell[static_cast<std::size_t>(axis)] + 1);
-    };
     if (dense_ && !loops && *cells <= direct_sort_cells) {
         // On one thread, a single counting sort over every cell, straight from the bodies:
         // the same order (cell, then slot) without the buckets per slab that let threads sort
@@ -188,11 +183,17 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         // The table (a few cells per sphere) is larger than the nearest caches, and the cells
         // come in no order: so the keys are found first, and each pass fetches the table's
         // entry (and, placing, the entry's destination) some spheres ahead of using it.
-        keys_.resize(n);
-        std::uint64_t* const key = keys_.data();
+        keying_frame_ = frame;
+        std::uint64_t const* key = nullptr;
+        if (keyed && keyed->frame == frame && keyed->keys.size() == n) {
+            key = keyed->keys.data();
+        } else {
+            keys_.resize(n);
+            for (std::size_t i = 0; i < n; ++i) // bodies that are not spheres get a key, unused
+                keys_[i] = radius[i] > 0.0 ? frame.key(x[i]) : 0;
+            key = keys_.data();
+        }
         std::uint32_t* const table = (cell_begin_.assign(*cells + 1, 0U), cell_begin_.data());
-        for (std::size_t i = 0; i < n; ++i) // bodies that are not spheres get a key, unused
-            key[i] = radius[i] > 0.0 ? cell_of(i, 0) * stride_x_ + cell_of(i, 1) * stride_y_ + cell_of(i, 2) : 0;
         for (std::size_t i = 0; i < n; ++i) {
             if (i + prefetch_distance < n)
                 __builtin_prefetch(table + key[i + prefetch_distance], 1);
@@ -235,8 +236,12 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         for (std::size_t i = begin; i < end; ++i) {
             if (!(radius[i] > 0.0))
                 continue;
-            std::uint64_t const cx = cell_of(i, 0);
-            keys_[i] = cx * stride_x_ + cell_of(i, 1) * stride_y_ + cell_of(i, 2);
+            auto const cell = [&](Eigen::Index axis) {
+                return static_cast<std::uint64_t>(floor_to_integer(x[i][axis] * per_metre) -
+                                                  frame.origin[static_cast<std::size_t>(axis)]);
+            };
+            std::uint64_t const cx = cell(0); // frame.key(x[i]), with the x-cell kept
+            keys_[i] = cx * stride_x_ + cell(1) * stride_y_ + cell(2);
             slabs_[i] = slab_of_x_cell(cx);
             ++count[slabs_[i]];
         }

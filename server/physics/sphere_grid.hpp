@@ -1,12 +1,15 @@
 #pragma once
 
 #include "parallel_for.hpp"
+#include "sse2.hpp"
 #include "vec.hpp"
 
 #include <algorithm>
+#include <array>
 #include <cstddef>
 #include <cstdint>
 #include <limits>
+#include <optional>
 #include <span>
 #include <compare>
 #include <functional>
@@ -63,6 +66,54 @@ struct sphere_extent
     }
 };
 
+/// floor(q) for |q| < 2^53, without a library call.
+inline std::int64_t floor_to_integer(double q)
+{
+    auto const truncated = static_cast<std::int64_t>(q);
+    return q < static_cast<double>(truncated) ? truncated - 1 : truncated;
+}
+
+/// How a sphere_grid numbers its cells: the key of the cell a centre is in. Two builds with
+/// equal frames give every centre the same key.
+struct cell_frame
+{
+    double per_metre = 0.0;                ///< 1 / cell size, 1/m
+    std::array<std::int64_t, 3> origin{};  ///< the cell, per axis, whose coordinate is 0
+    std::uint64_t stride_x = 0;            ///< key step to the next x-cell
+    std::uint64_t stride_y = 0;            ///< key step to the next y-cell
+
+    /// The key of x's cell. Defined for any x, even one far outside the frame or not finite
+    /// (the key is then of no use): a caller may number cells before knowing they fit.
+    std::uint64_t key(vec3 const& x) const
+    {
+        auto const cell = [&](Eigen::Index axis) {
+            double const q = x[axis] * per_metre;
+#if defined(KUGEL_SSE2) && defined(__x86_64__)
+            // The processor's conversion gives -2^63 for what has no 64-bit integer, where a
+            // cast would be undefined.
+            auto const truncated = static_cast<std::uint64_t>(_mm_cvttsd_si64(_mm_set_sd(q)));
+#else
+            double const bounded = std::max(std::min(q, 0x1p62), -0x1p62); // NaN stays NaN
+            auto const truncated = static_cast<std::uint64_t>(
+                static_cast<std::int64_t>(bounded == bounded ? bounded : 0.0));
+#endif
+            // floor(q), then the origin's offset, with unsigned (wrapping) arithmetic
+            std::uint64_t const below = q < static_cast<double>(static_cast<std::int64_t>(truncated)) ? 1 : 0;
+            return truncated - below - static_cast<std::uint64_t>(origin[static_cast<std::size_t>(axis)]);
+        };
+        return cell(0) * stride_x + cell(1) * stride_y + cell(2);
+    }
+    friend bool operator==(cell_frame const&, cell_frame const&) = default;
+};
+
+/// Cell keys a caller found on a pass it makes over the bodies anyway (by body slot; any
+/// value for bodies that are not spheres), and the frame it numbered them in.
+struct cell_keys
+{
+    std::span<std::uint64_t const> keys;
+    cell_frame frame;
+};
+
 /// The spheres of one step filed by their centres into cubic cells as wide as the largest
 /// diameter, so that two spheres whose boxes overlap sit in the same cell or in neighbouring
 /// ones: the discrete step's broadphase when the scene asks for the grid, and the order in
@@ -98,9 +149,17 @@ public:
     bool build(std::span<vec3 const> x, std::span<double const> radius,
                std::span<double const> inverse_mass, parallel_for* loops, slab_ready const& ready = {});
     /// The same, given the bodies' extent (found on a pass the caller makes anyway).
+    /// With `keyed`, keys numbered in the frame the build turns out to use spare it finding
+    /// them (on one thread: see keying_frame()); keys in another frame are not read.
     bool build(std::span<vec3 const> x, std::span<double const> radius,
                std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops,
-               slab_ready const& ready);
+               slab_ready const& ready, cell_keys const* keyed = nullptr);
+
+    /// The frame of the last build when it sorted the spheres on one thread, all at once, the
+    /// case in which it reads keys given to it. A gas in a box keeps its frame from step to
+    /// step (the extreme centres stay in their cells), so keys numbered in the last build's
+    /// frame usually fit the next.
+    std::optional<cell_frame> const& keying_frame() const { return keying_frame_; }
 
     /// When build() declines: files every sphere in one slab, in slot order, for a caller that
     /// finds the pairs elsewhere (near_pairs() is not available then).
@@ -151,6 +210,7 @@ private:
     void near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
 
     bool in_cell_order_ = false;
+    std::optional<cell_frame> keying_frame_;
     std::uint64_t stride_y_ = 0; ///< key step to the next y-cell (= cells in z, padded)
     std::uint64_t stride_x_ = 0; ///< key step to the next x-cell
     /// A table of every cell's start, when there are few cells per sphere; else the starts

@@ -8,6 +8,7 @@
 #include <cmath>
 #include <cstdlib>
 #include <iterator>
+#include <limits>
 #include <new>
 #include <random>
 #include <stdexcept>
@@ -496,6 +497,84 @@ TEST(SphereGrid, SameOrderWithAPoolOfThreads)
         EXPECT_TRUE(a == b);
         EXPECT_TRUE(a_touching == b_touching);
     }
+}
+
+// The discrete wall pass numbers the spheres' cells in the grid's last frame, to spare the
+// grid that pass. Keys in the frame the grid turns out to use must give exactly the grid it
+// builds by itself; keys in any other frame must not be read at all (here they are nonsense).
+TEST(SphereGrid, TakesKeysFoundBeforehandOnlyInItsOwnFrame)
+{
+    std::mt19937_64 rng(11);
+    std::vector<vec3> x;
+    std::vector<double> r;
+    add_random_spheres(rng, 5000, vec3::Zero(), 4.1, 0.05, 0.1, x, r); // 20.5 cells wide
+    r[17] = 0.0; // a point mass among them: never filed, whatever its key
+    std::vector<double> const inverse_mass(x.size(), 1.0);
+    sphere_extent all;
+    for (std::size_t i = 0; i < x.size(); ++i)
+        all.add(x[i], r[i]);
+    sphere_grid fresh;
+    ASSERT_TRUE(fresh.build(x, r, inverse_mass, all, nullptr, {}));
+    ASSERT_TRUE(fresh.keying_frame().has_value());
+    cell_frame const frame = *fresh.keying_frame();
+
+    std::vector<std::uint64_t> keys(x.size(), 0);
+    for (std::size_t i = 0; i < x.size(); ++i)
+        keys[i] = r[i] > 0.0 ? frame.key(x[i]) : 12345;
+    // The wall pass keys every sphere before anyone knows whether the frame still holds: a
+    // key is defined anywhere, far outside the frame or not a number (the sanitized build
+    // checks that no conversion there is undefined).
+    for (double const far : {1e300, -1e300, std::numeric_limits<double>::infinity(),
+                             -std::numeric_limits<double>::infinity(), std::numeric_limits<double>::quiet_NaN()}) {
+        vec3 const nowhere(far, 0.5, -far);
+        EXPECT_EQ(frame.key(nowhere), frame.key(nowhere));
+    }
+    cell_frame shifted = frame;
+    shifted.origin[1] -= 1;
+    std::vector<std::uint64_t> const nonsense(x.size(), std::numeric_limits<std::uint64_t>::max());
+    cell_keys const own{keys, frame}, other{nonsense, shifted};
+    for (cell_keys const* keyed : {&own, &other}) {
+        sphere_grid grid;
+        ASSERT_TRUE(grid.build(x, r, inverse_mass, all, nullptr, {}, keyed));
+        ASSERT_EQ(grid.slab_count(), fresh.slab_count());
+        EXPECT_TRUE(grid.keying_frame() == fresh.keying_frame());
+        for (std::uint32_t k = 0; k < grid.sphere_count(); ++k)
+            ASSERT_EQ(grid.slot(k), fresh.slot(k));
+        std::vector<sphere_pair> a, b, a_touching, b_touching;
+        for (std::size_t s = 0; s < grid.slab_count(); ++s) {
+            grid.near_pairs(s, a, a_touching);
+            fresh.near_pairs(s, b, b_touching);
+            EXPECT_TRUE(a == b);
+            EXPECT_TRUE(a_touching == b_touching);
+        }
+    }
+
+    // The sphere farthest from the origin (all coordinates are positive), moved outwards to
+    // the end of its cell on that axis, widens the scene's reach by a good part of a cell but
+    // changes no extreme cell: the frame stays, as the cell size depends on the reach only
+    // through the power of two above it (taken as it is, the reach widens the cells by a few
+    // units in the last place here).
+    std::size_t farthest = 0;
+    Eigen::Index axis = 0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        Eigen::Index k = 0;
+        if (r[i] > 0.0 && x[i].cwiseAbs().maxCoeff(&k) > std::abs(x[farthest][axis])) {
+            farthest = i;
+            axis = k;
+        }
+    }
+    std::vector<vec3> moved = x;
+    double const cell = std::floor(x[farthest][axis] * frame.per_metre);
+    moved[farthest][axis] = (cell + 0.999) / frame.per_metre;
+    ASSERT_EQ(std::floor(moved[farthest][axis] * frame.per_metre), cell);
+    ASSERT_GT((moved[farthest][axis] - x[farthest][axis]) * frame.per_metre, 0.25);
+    sphere_grid next;
+    ASSERT_TRUE(next.build(moved, r, inverse_mass, nullptr));
+    EXPECT_TRUE(next.keying_frame() == fresh.keying_frame());
+    // Threads sort slab by slab and read no keys given: no frame is offered then.
+    thread_pool pool(2);
+    ASSERT_TRUE(next.build(moved, r, inverse_mass, &pool));
+    EXPECT_FALSE(next.keying_frame().has_value());
 }
 
 // The discrete step finds each slab's pairs while the grid is still being built, as soon as
