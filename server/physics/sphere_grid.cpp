@@ -419,7 +419,10 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
     ranks4 const ascending = {0, 1, 2, 3};
     std::array<std::uint32_t, most_gathered + gather_width> gathered;
     std::vector<std::uint32_t> spilled;
+    // Everything the loop reads or writes, in locals: read through the members, each was
+    // loaded again for every sphere (the writes through the output could alias them).
     std::uint32_t const* const table = cell_begin_.data();
+    std::uint64_t const* const keys = cells_.data();
     packed_sphere const* const filed = spheres_.data();
     // Each row's first cell, from the sphere's own; its three cells end three further on.
     auto const row = [](std::uint64_t offset) { return static_cast<std::ptrdiff_t>(offset) - 1; };
@@ -430,20 +433,23 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
     // pairs found since it last ran: every contact_block spheres, while their entries are
     // still in the nearest cache.
     constexpr std::uint32_t contact_block = 256;
+    touching.resize(near.size()); // touching stays as long as near
+    sphere_pair* near_out = near.data();
+    sphere_pair* touching_out = touching.data();
+    std::size_t room = near.size();
     auto const find_contacts = [&] {
         for (; checked < found; ++checked) {
-            sphere_pair const pair = near[checked];
+            sphere_pair const pair = near_out[checked];
             packed_sphere const& a = filed[pair.a];
             packed_sphere const& b = filed[pair.b];
             double const reach = a.radius + b.radius;
-            touching[touched] = pair;
+            touching_out[touched] = pair;
             touched += !((a.x - b.x).squaredNorm() > reach * reach);
         }
     };
-    touching.resize(near.size()); // touching stays as long as near
     std::uint32_t const last = slab_begin_[s + 1];
     for (std::uint32_t p = slab_begin_[s]; p < last; ++p) {
-        std::uint32_t const* const cell = table + cells_[p];
+        std::uint32_t const* const cell = table + keys[p];
         // The five runs, each written whole (four ranks from its start) where the last one
         // ended: one write per run, whatever its length, and only the run's own count kept.
         // A run of gather_width or more spheres spoils the list; then it is gathered again.
@@ -464,19 +470,25 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
         gather(cell[row_xyy], cell[row_xyy + 3]);
         std::uint32_t const* candidate = gathered.data();
         std::uint32_t count = filled;
-        if (any_length >= gather_width) {
-            spilled.clear();
-            for (std::uint32_t q = p + 1; q < cell[2]; ++q) // its own cell and the next, after it
-                spilled.push_back(q);
-            for (std::ptrdiff_t const first : {row_y, row_xy, row_x, row_xyy})
-                for (std::uint32_t q = cell[first]; q < cell[first + 3]; ++q)
+        if (any_length >= gather_width) [[unlikely]] {
+            // Out of line, so that the common path keeps its values in registers.
+            [&]() __attribute__((noinline)) {
+                spilled.clear();
+                for (std::uint32_t q = p + 1; q < cell[2]; ++q) // its own cell and the next, after it
                     spilled.push_back(q);
+                for (std::ptrdiff_t const first : {row_y, row_xy, row_x, row_xyy})
+                    for (std::uint32_t q = cell[first]; q < cell[first + 3]; ++q)
+                        spilled.push_back(q);
+            }();
             candidate = spilled.data();
             count = static_cast<std::uint32_t>(spilled.size());
         }
-        if (near.size() < found + count) {
-            near.resize(found + count + near.size() / 2);
+        if (room < found + count) {
+            near.resize(found + count + room / 2);
             touching.resize(near.size());
+            near_out = near.data();
+            touching_out = touching.data();
+            room = near.size();
         }
 
 
@@ -510,7 +522,6 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
             return in;
         };
 #endif
-        sphere_pair* const near_out = near.data(); // not reloaded after each write
         for (std::uint32_t k = 0; k < count; ++k) {
             std::uint32_t const q = candidate[k];
             near_out[found] = {p, q};
