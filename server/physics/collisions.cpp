@@ -416,8 +416,15 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
     auto const each_slab = [&](auto const& work) {
         run_loop(loops, slabs, [&](std::size_t s) { work(ws.slabs[s]); });
     };
-    ws.mark.assign(spheres, 0);
-    std::uint32_t stamp = 1;
+    // Marks are stamps that only grow, from step to step too, so that every mark left by an
+    // earlier step is below this step's first stamp and the table need not be cleared (4 MB
+    // at 10^6 spheres, on one thread). Cleared only before the stamps would wrap.
+    if (ws.stamp > std::numeric_limits<std::uint32_t>::max() - 64) {
+        ws.mark.assign(spheres, 0);
+        ws.stamp = 0;
+    }
+    ws.mark.resize(spheres); // new entries 0, below every stamp
+    std::uint32_t stamp = ++ws.stamp;
     auto const list_once = [&](std::vector<std::uint32_t>& list, std::uint32_t k) {
         if (std::exchange(ws.mark[k], stamp) != stamp)
             list.push_back(k);
@@ -610,6 +617,7 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
             b.x[slot_of(k)] = packed(k).x;
         }
     });
+    ws.stamp = stamp;
     for (contact_slab const& slab : ws.slabs)
         stats.sphere_contacts += slab.responses;
 }

@@ -8,8 +8,10 @@
 #include <algorithm>
 #include <cmath>
 #include <functional>
+#include <limits>
 #include <optional>
 #include <random>
+#include <tuple>
 
 namespace kugel::physics {
 namespace {
@@ -605,6 +607,46 @@ TEST(DiscreteThreads, FarFlungSphereStaysDeterministic)
         thread_pool pool(2);
         EXPECT_EQ(run(broadphase_kind::uniform_grid, &pool), reference) << far;
         EXPECT_EQ(run(broadphase_kind::brute_force, nullptr), reference) << far;
+    }
+}
+
+// The discrete step marks the spheres each pass lists with stamps that grow from step to step,
+// so that the table of marks is never cleared; just before they would wrap, it is cleared
+// once and they start again. A workspace whose stamps are about to wrap must step the same
+// gas to the same bits as a fresh one, on the step of the wrap and after it.
+TEST(DiscreteCollisions, MarksThatWrapChangeNothing)
+{
+    world const gas = discrete_gas(2000);
+    std::vector<double> inverse_mass, radius;
+    for (std::size_t i = 0; i < gas.bodies().size(); ++i) {
+        inverse_mass.push_back(gas.bodies().inverse_masses()[i]);
+        radius.push_back(gas.bodies().radii()[i]);
+    }
+    collision_settings settings = gas.settings().collisions;
+    auto const run = [&](std::uint32_t first_stamp) {
+        std::vector<vec3> x(gas.bodies().positions().begin(), gas.bodies().positions().end());
+        std::vector<vec3> v(gas.bodies().velocities().begin(), gas.bodies().velocities().end());
+        collision_workspace workspace;
+        workspace.stamp = first_stamp;
+        collision_stats stats;
+        std::vector<std::uint32_t> stamps;
+        for (int step = 0; step < 40; ++step) {
+            resolve_collisions(settings, gas.walls(), {}, {x, v, x, v, inverse_mass, radius, false, true},
+                               1.0 / 60.0, workspace, stats);
+            stamps.push_back(workspace.stamp);
+            // What the next step relies on: no mark is at or above its first stamp.
+            EXPECT_LE(*std::max_element(workspace.mark.begin(), workspace.mark.end()), workspace.stamp) << step;
+        }
+        EXPECT_GT(stats.sphere_contacts, 1000U);
+        return std::make_tuple(x, v, stamps);
+    };
+    auto const [x, v, fresh_stamps] = run(0);
+    auto const [x_wrapped, v_wrapped, stamps] = run(std::numeric_limits<std::uint32_t>::max() - 100);
+    EXPECT_LT(stamps.back(), stamps.front()) << "the stamps never wrapped";
+    EXPECT_LT(fresh_stamps.front(), fresh_stamps.back());
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        ASSERT_EQ(x[i], x_wrapped[i]) << i;
+        ASSERT_EQ(v[i], v_wrapped[i]) << i;
     }
 }
 
