@@ -465,7 +465,7 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
             auto const c = static_cast<std::uint32_t>(slab.first_copied + listed);
             fetch_ahead(slab.copied, listed, [&](std::uint32_t later) { return &b.v[slot_of(later)]; });
             ws.listed_at[k] = c;
-            moving[c] = {b.v[i], packed(k).inverse_mass};
+            moving[c] = {b.v[i], grid.inverse_mass(k)};
             if (free_a.any())
                 a[c] = free_a[i];
             if (!walls.beyond(packed(k).x, packed(k).radius * (1.0 + 1e-9)))
@@ -548,13 +548,14 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
                 double const reach = s.radius + t.radius;
                 if ((s.x - t.x).squaredNorm() >= reach * reach)
                     return false; // most near pairs are apart: no square root for them
-                double const total = s.inverse_mass + t.inverse_mass;
+                double const s_inverse_mass = grid.inverse_mass(c.a), t_inverse_mass = grid.inverse_mass(c.b);
+                double const total = s_inverse_mass + t_inverse_mass;
                 double gap = 0.0;
                 vec3 const n = normal_of(c.a, c.b, gap);
                 if (gap >= -rounding_overlap * reach || total == 0.0)
                     return false;
-                s.x -= (gap * s.inverse_mass / total) * n;
-                t.x += (gap * t.inverse_mass / total) * n;
+                s.x -= (gap * s_inverse_mass / total) * n;
+                t.x += (gap * t_inverse_mass / total) * n;
                 list_once(slab.touched, c.a);
                 list_once(slab.touched, c.b);
                 return true;
@@ -600,7 +601,7 @@ void resolve_pairs_discrete(collision_settings const& settings, wall_set const& 
                 if (walls.clear(p.x, p.radius))
                     continue;
                 std::uint32_t const i = slot_of(k);
-                push_out_and_meet_walls(walls, p.x, b.v[i], p.radius, p.inverse_mass, free_a[i], settings, h);
+                push_out_and_meet_walls(walls, p.x, b.v[i], p.radius, grid.inverse_mass(k), free_a[i], settings, h);
             }
             slab.pushed.insert(slab.pushed.end(), slab.touched.begin(), slab.touched.end());
         });

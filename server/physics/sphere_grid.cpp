@@ -69,6 +69,7 @@ std::optional<std::uint64_t> checked_product(std::uint64_t a, std::uint64_t b)
 void sphere_grid::resize_filed(std::uint32_t spheres)
 {
     spheres_.resize(spheres);
+    inverse_masses_.resize(spheres);
     slots_.resize(spheres);
     cells_.resize(spheres);
 }
@@ -81,9 +82,10 @@ void sphere_grid::fetch_destination(std::uint32_t start) const
 
 auto sphere_grid::filer()
 {
-    return [spheres = spheres_.data(), slots = slots_.data(), cells = cells_.data()](std::uint32_t rank,
-                                                                                    filed_sphere const& e) {
-        spheres[rank] = e.sphere;
+    return [spheres = spheres_.data(), inverse_masses = inverse_masses_.data(), slots = slots_.data(),
+            cells = cells_.data()](std::uint32_t rank, filed_sphere const& e) {
+        spheres[rank] = {e.x, e.radius};
+        inverse_masses[rank] = e.inverse_mass;
         slots[rank] = e.slot;
         cells[rank] = e.cell;
     };
@@ -208,7 +210,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
             if (i >= prefetch_distance / 2)
                 fetch_destination(table[key[i - prefetch_distance / 2]]);
             if (radius[i] > 0.0) // now each cell's start:
-                file(--table[key[i]], {key[i], static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
+                file(--table[key[i]], {key[i], static_cast<std::uint32_t>(i), x[i], radius[i], inverse_mass[i]});
         }
         slab_begin_.resize(slabs + 1);
         for (std::uint32_t s = 0; s <= slabs; ++s)
@@ -263,7 +265,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
             if (!(radius[i] > 0.0))
                 continue;
             by_slab_[start[slabs_[i]]++] = {keys_[i], static_cast<std::uint32_t>(i),
-                                            {x[i], radius[i], inverse_mass[i]}};
+                                            x[i], radius[i], inverse_mass[i]};
         }
     });
 
@@ -337,7 +339,7 @@ void sphere_grid::file_in_slot_order(std::span<vec3 const> x, std::span<double c
     std::uint32_t k = 0;
     for (std::size_t i = 0; i < x.size(); ++i)
         if (radius[i] > 0.0)
-            file(k++, {0, static_cast<std::uint32_t>(i), {x[i], radius[i], inverse_mass[i]}});
+            file(k++, {0, static_cast<std::uint32_t>(i), x[i], radius[i], inverse_mass[i]});
     slab_begin_ = {0, spheres};
     in_cell_order_ = false;
 }

@@ -27,12 +27,12 @@ struct sphere_pair
     friend bool operator==(sphere_pair const&, sphere_pair const&) = default;
 };
 
-/// A sphere as the discrete step's pair passes see it.
-struct packed_sphere
+/// A sphere as the discrete step's pair passes see it: 32 bytes, two to a cache line and
+/// never across two (its inverse mass, which only a push reads, is kept beside it).
+struct alignas(32) packed_sphere
 {
-    vec3 x;              ///< m
-    double radius;       ///< m, > 0
-    double inverse_mass; ///< 1/kg, 0 for a static sphere
+    vec3 x;        ///< m
+    double radius; ///< m, > 0
 };
 
 /// What a set of bodies holds for a sphere_grid: its spheres' count, largest radius and
@@ -180,6 +180,8 @@ public:
     /// The sphere at this position of cell order, as given to build(); the caller may move it.
     packed_sphere& sphere(std::uint32_t rank) { return spheres_[rank]; }
     packed_sphere const& sphere(std::uint32_t rank) const { return spheres_[rank]; }
+    /// The inverse mass of that sphere, 1/kg (0 for a static one).
+    double inverse_mass(std::uint32_t rank) const { return inverse_masses_[rank]; }
     /// Fills `out` with the position in cell order of the sphere in each body slot (of n; the
     /// entries of bodies that are not spheres are left as they were).
     void ranks(std::size_t n, std::vector<std::uint32_t>& out) const;
@@ -196,7 +198,9 @@ private:
     {
         std::uint64_t cell; ///< key of its cell: (x · cells_y + y) · cells_z + z
         std::uint32_t slot; ///< body slot
-        packed_sphere sphere;
+        vec3 x;             ///< m
+        double radius;      ///< m
+        double inverse_mass; ///< 1/kg
     };
 
     void resize_filed(std::uint32_t spheres);
@@ -216,10 +220,11 @@ private:
     /// A table of every cell's start, when there are few cells per sphere; else the starts
     /// are searched for in the sorted keys (a sparse scene).
     bool dense_ = false;
-    // The filed spheres in cell order, in three tables: the pair passes read the spheres
-    // alone, 40 bytes each, where one table of all three took 56 (at 10^6 spheres the step
-    // waits on memory, and reads the spheres several times).
+    // The filed spheres in cell order, in four tables: the pair passes read the spheres
+    // alone, 32 bytes each, where one table of all took 56 (at 10^6 spheres the step waits on
+    // memory, and reads the spheres several times).
     std::vector<packed_sphere> spheres_;       ///< in cell order
+    std::vector<double> inverse_masses_;       ///< in cell order
     std::vector<std::uint32_t> slots_;         ///< body slot, in cell order
     std::vector<std::uint64_t> cells_;         ///< cell key, in cell order
     std::vector<filed_sphere> by_slab_;        ///< by slab, in slot order within each
