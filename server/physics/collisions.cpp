@@ -224,7 +224,8 @@ template <bool drift_pending, bool accelerated>
 void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,
                             cell_frame const* frame, std::span<std::uint64_t> keys,
-                            std::size_t begin, std::size_t end, wall_chunk& out)
+                            std::span<std::uint32_t> x_cells, std::size_t begin, std::size_t end,
+                            wall_chunk& out)
 {
     out.moved.clear();
     out.responses = 0;
@@ -255,8 +256,12 @@ void resolve_walls_discrete(collision_settings const& settings, wall_set const& 
             }
         }
         extent.add(b.x[i], r);
-        if (frame && r > 0.0)
-            keys[i] = frame->key(b.x[i]);
+        if (frame && r > 0.0) {
+            std::uint64_t x_cell = 0;
+            keys[i] = frame->key(b.x[i], x_cell);
+            if (!x_cells.empty())
+                x_cells[i] = static_cast<std::uint32_t>(x_cell); // of use only when it fits
+        }
     }
     out.accelerated = any_accelerated;
     out.extent = extent;
@@ -648,21 +653,22 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     auto& free_a = workspace.free_acceleration;
     free_a.resize(bodies.accelerated ? n : 0);
     workspace.wall_chunks.resize(chunk_count(n));
-    // Where the grid will sort on one thread and the bodies' extent is known at the end of
-    // this pass (no box moves a sphere after it), the pass also numbers the spheres' cells in
-    // the grid's last frame, sparing the grid another pass over the bodies when the frame
-    // holds (sphere_grid::keying_frame).
+    // Where the bodies' extent is known at the end of this pass (no box moves a sphere after
+    // it), the pass also numbers the spheres' cells in the grid's last frame (and, for a grid
+    // sorted slab by slab on threads, notes their x-cells), sparing the grid another pass over
+    // the bodies when the frame holds (sphere_grid::keying_frame).
     std::optional<cell_frame> const keying_frame =
-        !loops && obstacles.empty() && settings.broadphase == broadphase_kind::uniform_grid
+        obstacles.empty() && settings.broadphase == broadphase_kind::uniform_grid
             ? workspace.grid.keying_frame()
             : std::nullopt;
     workspace.cell_keys.resize(keying_frame ? n : 0);
+    workspace.cell_x.resize(keying_frame && loops ? n : 0);
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
         auto const pass = bodies.drift_pending ? resolve_walls_discrete<true, false>
                           : bodies.accelerated ? resolve_walls_discrete<false, true>
                                                : resolve_walls_discrete<false, false>;
         pass(settings, wall_tests, bodies, h, free_a, keying_frame ? &*keying_frame : nullptr,
-             workspace.cell_keys, begin, end, workspace.wall_chunks[c]);
+             workspace.cell_keys, workspace.cell_x, begin, end, workspace.wall_chunks[c]);
     });
     workspace.moved.clear();
     sphere_extent extent;
@@ -684,7 +690,8 @@ void resolve_discrete(collision_settings const& settings, std::span<wall const> 
     // Boxes move spheres after the wall pass noted where they were.
     auto const known_extent = obstacles.empty() ? std::optional<sphere_extent>(extent) : std::nullopt;
     std::optional<cell_keys> const keyed =
-        keying_frame ? std::optional<cell_keys>({workspace.cell_keys, *keying_frame}) : std::nullopt;
+        keying_frame ? std::optional<cell_keys>({workspace.cell_keys, *keying_frame, workspace.cell_x})
+                     : std::nullopt;
     resolve_pairs_discrete(settings, wall_tests, bodies, h, free_motion, known_extent,
                            keyed ? &*keyed : nullptr, workspace, stats, loops);
 

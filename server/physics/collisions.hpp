@@ -136,6 +136,7 @@ public:
     std::vector<wall_chunk> wall_chunks; ///< discrete mode: one per chunk of bodies
     std::vector<std::uint32_t> ranks;   ///< discrete mode: position in cell order by body slot
     std::vector<std::uint64_t> cell_keys; ///< discrete mode: cell key by body slot, from the wall pass
+    std::vector<std::uint32_t> cell_x;  ///< discrete mode, with threads: and the cell's x-coordinate
     std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
     std::uint32_t stamp = 0;            ///< discrete mode: the last pass's stamp, from step to step
     /// Discrete mode: a contact sphere as the velocity passes see it.

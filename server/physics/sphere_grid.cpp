@@ -164,6 +164,8 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     // Coordinate 0 is the padding cell below the lowest occupied one.
     cell_frame const frame{per_metre, {lowest_cell[0] - 1, lowest_cell[1] - 1, lowest_cell[2] - 1}, stride_x_, stride_y_};
     dense_ = *cells <= dense_cells_per_sphere * std::uint64_t{all.spheres} + 1024;
+    if (dense_)
+        keying_frame_ = frame;
 
     // 3. Slabs of equal numbers of x-cells; the first and last also hold the padding cells,
     //    and the last the end of the table.
@@ -185,7 +187,6 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         // The table (a few cells per sphere) is larger than the nearest caches, and the cells
         // come in no order: so the keys are found first, and each pass fetches the table's
         // entry (and, placing, the entry's destination) some spheres ahead of using it.
-        keying_frame_ = frame;
         std::uint64_t const* key = nullptr;
         if (keyed && keyed->frame == frame && keyed->keys.size() == n) {
             key = keyed->keys.data();
@@ -231,19 +232,27 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         return dense_ ? slab_of_x_[cx] : static_cast<std::uint32_t>((cx - 1) / width);
     };
     chunk_slab_start_.assign(chunks * slabs, 0);
-    keys_.resize(n);
     slabs_.resize(n);
+    // Keys given in this frame, with their x-cells, leave only the slabs to find.
+    bool const given = dense_ && keyed && keyed->frame == frame && keyed->keys.size() == n &&
+                       keyed->x_cells.size() == n;
+    if (!given)
+        keys_.resize(n);
+    std::uint64_t const* const key = given ? keyed->keys.data() : keys_.data();
     run_chunks(loops, n, [&](std::size_t c, std::size_t begin, std::size_t end) {
         std::uint32_t* const count = chunk_slab_start_.data() + c * slabs;
+        if (given) {
+            std::uint32_t const* const x_cell = keyed->x_cells.data();
+            for (std::size_t i = begin; i < end; ++i)
+                if (radius[i] > 0.0)
+                    ++count[slabs_[i] = slab_of_x_[x_cell[i]]];
+            return;
+        }
         for (std::size_t i = begin; i < end; ++i) {
             if (!(radius[i] > 0.0))
                 continue;
-            auto const cell = [&](Eigen::Index axis) {
-                return static_cast<std::uint64_t>(floor_to_integer(x[i][axis] * per_metre) -
-                                                  frame.origin[static_cast<std::size_t>(axis)]);
-            };
-            std::uint64_t const cx = cell(0); // frame.key(x[i]), with the x-cell kept
-            keys_[i] = cx * stride_x_ + cell(1) * stride_y_ + cell(2);
+            std::uint64_t cx = 0;
+            keys_[i] = frame.key(x[i], cx);
             slabs_[i] = slab_of_x_cell(cx);
             ++count[slabs_[i]];
         }
@@ -264,7 +273,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         for (std::size_t i = begin; i < end; ++i) {
             if (!(radius[i] > 0.0))
                 continue;
-            by_slab_[start[slabs_[i]]++] = {keys_[i], static_cast<std::uint32_t>(i),
+            by_slab_[start[slabs_[i]]++] = {key[i], static_cast<std::uint32_t>(i),
                                             x[i], radius[i], inverse_mass[i]};
         }
     });

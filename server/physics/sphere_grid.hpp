@@ -86,6 +86,12 @@ struct cell_frame
     /// (the key is then of no use): a caller may number cells before knowing they fit.
     std::uint64_t key(vec3 const& x) const
     {
+        std::uint64_t x_cell = 0;
+        return key(x, x_cell);
+    }
+    /// The same, with the x-coordinate of the cell (in [1, cells in x] when x is in the frame).
+    std::uint64_t key(vec3 const& x, std::uint64_t& x_cell) const
+    {
         auto const cell = [&](Eigen::Index axis) {
             double const q = x[axis] * per_metre;
 #if defined(KUGEL_SSE2) && defined(__x86_64__)
@@ -101,7 +107,8 @@ struct cell_frame
             std::uint64_t const below = q < static_cast<double>(static_cast<std::int64_t>(truncated)) ? 1 : 0;
             return truncated - below - static_cast<std::uint64_t>(origin[static_cast<std::size_t>(axis)]);
         };
-        return cell(0) * stride_x + cell(1) * stride_y + cell(2);
+        x_cell = cell(0);
+        return x_cell * stride_x + cell(1) * stride_y + cell(2);
     }
     friend bool operator==(cell_frame const&, cell_frame const&) = default;
 };
@@ -112,6 +119,9 @@ struct cell_keys
 {
     std::span<std::uint64_t const> keys;
     cell_frame frame;
+    /// The x-coordinates of the same cells (cell_frame::key), by body slot: what a build
+    /// with threads, which sorts slab by slab, needs besides.
+    std::span<std::uint32_t const> x_cells = {};
 };
 
 /// The spheres of one step filed by their centres into cubic cells as wide as the largest
@@ -150,15 +160,16 @@ public:
                std::span<double const> inverse_mass, parallel_for* loops, slab_ready const& ready = {});
     /// The same, given the bodies' extent (found on a pass the caller makes anyway).
     /// With `keyed`, keys numbered in the frame the build turns out to use spare it finding
-    /// them (on one thread: see keying_frame()); keys in another frame are not read.
+    /// them (with threads, only when their x-cells come too); keys in another frame are not
+    /// read.
     bool build(std::span<vec3 const> x, std::span<double const> radius,
                std::span<double const> inverse_mass, sphere_extent const& all, parallel_for* loops,
                slab_ready const& ready, cell_keys const* keyed = nullptr);
 
-    /// The frame of the last build when it sorted the spheres on one thread, all at once, the
-    /// case in which it reads keys given to it. A gas in a box keeps its frame from step to
-    /// step (the extreme centres stay in their cells), so keys numbered in the last build's
-    /// frame usually fit the next.
+    /// The frame of the last build when it kept a table of every cell (the case in which it
+    /// reads keys given to it): a scene with a few cells per sphere, such as a gas. A gas in
+    /// a box keeps its frame from step to step (the extreme centres stay in their cells), so
+    /// keys numbered in the last build's frame usually fit the next.
     std::optional<cell_frame> const& keying_frame() const { return keying_frame_; }
 
     /// When build() declines: files every sphere in one slab, in slot order, for a caller that

@@ -501,7 +501,8 @@ TEST(SphereGrid, SameOrderWithAPoolOfThreads)
 
 // The discrete wall pass numbers the spheres' cells in the grid's last frame, to spare the
 // grid that pass. Keys in the frame the grid turns out to use must give exactly the grid it
-// builds by itself; keys in any other frame must not be read at all (here they are nonsense).
+// builds by itself, on one thread or two; keys in any other frame must not be read at all
+// (here they are nonsense).
 TEST(SphereGrid, TakesKeysFoundBeforehandOnlyInItsOwnFrame)
 {
     std::mt19937_64 rng(11);
@@ -571,10 +572,35 @@ TEST(SphereGrid, TakesKeysFoundBeforehandOnlyInItsOwnFrame)
     sphere_grid next;
     ASSERT_TRUE(next.build(moved, r, inverse_mass, nullptr));
     EXPECT_TRUE(next.keying_frame() == fresh.keying_frame());
-    // Threads sort slab by slab and read no keys given: no frame is offered then.
+
+    // Threads sort slab by slab: they take the keys when their x-cells come with them, and
+    // otherwise find both themselves. Either way, the grid built alone.
     thread_pool pool(2);
-    ASSERT_TRUE(next.build(moved, r, inverse_mass, &pool));
-    EXPECT_FALSE(next.keying_frame().has_value());
+    std::vector<std::uint32_t> x_cells(x.size(), 0);
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        std::uint64_t x_cell = 0;
+        if (r[i] > 0.0) {
+            EXPECT_EQ(frame.key(x[i], x_cell), keys[i]);
+            x_cells[i] = static_cast<std::uint32_t>(x_cell);
+        }
+    }
+    std::vector<std::uint32_t> const nonsense_cells(x.size(), 7);
+    cell_keys const with_cells{keys, frame, x_cells}, other_cells{nonsense, shifted, nonsense_cells};
+    for (cell_keys const* keyed : {&with_cells, &own, &other_cells}) {
+        sphere_grid shared;
+        ASSERT_TRUE(shared.build(x, r, inverse_mass, all, &pool, {}, keyed));
+        ASSERT_GT(shared.slab_count(), 2U);
+        EXPECT_TRUE(shared.keying_frame() == fresh.keying_frame());
+        for (std::uint32_t k = 0; k < shared.sphere_count(); ++k)
+            ASSERT_EQ(shared.slot(k), fresh.slot(k));
+        std::vector<sphere_pair> a, b, a_touching, b_touching;
+        for (std::size_t s = 0; s < shared.slab_count(); ++s) {
+            shared.near_pairs(s, a, a_touching);
+            fresh.near_pairs(s, b, b_touching);
+            EXPECT_TRUE(a == b);
+            EXPECT_TRUE(a_touching == b_touching);
+        }
+    }
 }
 
 // The discrete step finds each slab's pairs while the grid is still being built, as soon as
