@@ -238,7 +238,13 @@ private:
     std::vector<double> inverse_masses_;       ///< in cell order
     std::vector<std::uint32_t> slots_;         ///< body slot, in cell order
     std::vector<std::uint64_t> cells_;         ///< cell key, in cell order
-    std::vector<filed_sphere> by_slab_;        ///< by slab, in slot order within each
+    /// A sphere on its way into its slab: its cell and body slot.
+    struct slab_entry
+    {
+        std::uint64_t cell;
+        std::uint32_t slot;
+    };
+    std::vector<slab_entry> by_slab_;          ///< by slab, in slot order within each
     std::vector<std::uint64_t> keys_;          ///< cell key by body slot (spheres only)
     std::vector<std::uint32_t> slabs_;         ///< slab by body slot (spheres only)
     std::vector<std::uint32_t> slab_of_x_;     ///< dense: slab of each x-cell
