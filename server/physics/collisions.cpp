@@ -217,9 +217,10 @@ bool bounce_off_walls(collision_settings const& settings, wall_set const& walls,
 /// The discrete wall pass over bodies [begin, end), each on its own: makes a pending drift,
 /// notes each body's free acceleration (unless free motion was a drift: then there is none),
 /// bounces the spheres found inside a wall off it, and notes the bodies' extent where it
-/// leaves them and, given a frame, the key of each sphere's cell there. Compiled once for each kind of free motion (drift_pending, accelerated, as
-/// in collision_bodies), so that the loop over every body tests neither, and the extent is
-/// kept in a local until the end, not in `out`.
+/// leaves them and, given a frame, the key of each sphere's cell there (and its x-cell, when
+/// asked). Compiled once for each kind of free motion (drift_pending, accelerated, as in
+/// collision_bodies), so that the loop over every body tests neither, and the extent is kept
+/// in a local until the end, not in `out`.
 template <bool drift_pending, bool accelerated>
 void resolve_walls_discrete(collision_settings const& settings, wall_set const& walls,
                             collision_bodies const& b, double h, std::span<vec3> free_a,

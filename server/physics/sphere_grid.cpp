@@ -166,6 +166,9 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     dense_ = *cells <= dense_cells_per_sphere * std::uint64_t{all.spheres} + 1024;
     if (dense_)
         keying_frame_ = frame;
+    // Keys given in this very frame are the ones the build would find (threads need their
+    // x-cells too).
+    bool const keys_fit = dense_ && keyed && keyed->frame == frame && keyed->keys.size() == n;
 
     // 3. Slabs of equal numbers of x-cells; the first and last also hold the padding cells,
     //    and the last the end of the table.
@@ -188,7 +191,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
         // come in no order: so the keys are found first, and each pass fetches the table's
         // entry (and, placing, the entry's destination) some spheres ahead of using it.
         std::uint64_t const* key = nullptr;
-        if (keyed && keyed->frame == frame && keyed->keys.size() == n) {
+        if (keys_fit) {
             key = keyed->keys.data();
         } else {
             keys_.resize(n);
@@ -234,8 +237,7 @@ bool sphere_grid::build(std::span<vec3 const> x, std::span<double const> radius,
     chunk_slab_start_.assign(chunks * slabs, 0);
     slabs_.resize(n);
     // Keys given in this frame, with their x-cells, leave only the slabs to find.
-    bool const given = dense_ && keyed && keyed->frame == frame && keyed->keys.size() == n &&
-                       keyed->x_cells.size() == n;
+    bool const given = keys_fit && keyed->x_cells.size() == n;
     if (!given)
         keys_.resize(n);
     std::uint64_t const* const key = given ? keyed->keys.data() : keys_.data();
