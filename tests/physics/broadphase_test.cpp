@@ -475,6 +475,23 @@ void add_random_spheres(std::mt19937_64& rng, std::size_t count, vec3 const& cor
     }
 }
 
+/// Two grids of the same spheres hold them in the same order, in the same slabs, with the
+/// same near pairs and contacts in each.
+void expect_same_grid(sphere_grid const& grid, sphere_grid const& expected)
+{
+    ASSERT_EQ(grid.slab_count(), expected.slab_count());
+    ASSERT_EQ(grid.sphere_count(), expected.sphere_count());
+    for (std::uint32_t k = 0; k < grid.sphere_count(); ++k)
+        ASSERT_EQ(grid.slot(k), expected.slot(k));
+    std::vector<sphere_pair> a, b, a_touching, b_touching;
+    for (std::size_t s = 0; s < grid.slab_count(); ++s) {
+        grid.near_pairs(s, a, a_touching);
+        expected.near_pairs(s, b, b_touching);
+        EXPECT_TRUE(a == b) << "slab " << s;
+        EXPECT_TRUE(a_touching == b_touching) << "slab " << s;
+    }
+}
+
 TEST(SphereGrid, SameOrderWithAPoolOfThreads)
 {
     std::mt19937_64 rng(5);
@@ -487,16 +504,8 @@ TEST(SphereGrid, SameOrderWithAPoolOfThreads)
     ASSERT_TRUE(alone.build(x, r, inverse_mass, nullptr));
     ASSERT_TRUE(shared.build(x, r, inverse_mass, &pool));
     ASSERT_GT(alone.slab_count(), 2U);
-    ASSERT_EQ(alone.slab_count(), shared.slab_count());
-    for (std::uint32_t k = 0; k < x.size(); ++k)
-        ASSERT_EQ(alone.slot(k), shared.slot(k));
-    std::vector<sphere_pair> a, b, a_touching, b_touching;
-    for (std::size_t s = 0; s < alone.slab_count(); ++s) {
-        alone.near_pairs(s, a, a_touching);
-        shared.near_pairs(s, b, b_touching);
-        EXPECT_TRUE(a == b);
-        EXPECT_TRUE(a_touching == b_touching);
-    }
+    ASSERT_EQ(alone.sphere_count(), x.size());
+    expect_same_grid(shared, alone);
 }
 
 // The discrete wall pass numbers the spheres' cells in the grid's last frame, to spare the
@@ -537,17 +546,8 @@ TEST(SphereGrid, TakesKeysFoundBeforehandOnlyInItsOwnFrame)
     for (cell_keys const* keyed : {&own, &other}) {
         sphere_grid grid;
         ASSERT_TRUE(grid.build(x, r, inverse_mass, all, nullptr, {}, keyed));
-        ASSERT_EQ(grid.slab_count(), fresh.slab_count());
         EXPECT_TRUE(grid.keying_frame() == fresh.keying_frame());
-        for (std::uint32_t k = 0; k < grid.sphere_count(); ++k)
-            ASSERT_EQ(grid.slot(k), fresh.slot(k));
-        std::vector<sphere_pair> a, b, a_touching, b_touching;
-        for (std::size_t s = 0; s < grid.slab_count(); ++s) {
-            grid.near_pairs(s, a, a_touching);
-            fresh.near_pairs(s, b, b_touching);
-            EXPECT_TRUE(a == b);
-            EXPECT_TRUE(a_touching == b_touching);
-        }
+        expect_same_grid(grid, fresh);
     }
 
     // The sphere farthest from the origin (all coordinates are positive), moved outwards to
@@ -591,15 +591,7 @@ TEST(SphereGrid, TakesKeysFoundBeforehandOnlyInItsOwnFrame)
         ASSERT_TRUE(shared.build(x, r, inverse_mass, all, &pool, {}, keyed));
         ASSERT_GT(shared.slab_count(), 2U);
         EXPECT_TRUE(shared.keying_frame() == fresh.keying_frame());
-        for (std::uint32_t k = 0; k < shared.sphere_count(); ++k)
-            ASSERT_EQ(shared.slot(k), fresh.slot(k));
-        std::vector<sphere_pair> a, b, a_touching, b_touching;
-        for (std::size_t s = 0; s < shared.slab_count(); ++s) {
-            shared.near_pairs(s, a, a_touching);
-            fresh.near_pairs(s, b, b_touching);
-            EXPECT_TRUE(a == b);
-            EXPECT_TRUE(a_touching == b_touching);
-        }
+        expect_same_grid(shared, fresh);
     }
 }
 
