@@ -2,9 +2,12 @@
 
 #include "metrics.hpp"
 #include "origin_check.hpp"
+#include "static_files.hpp"
 
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
+#include <cctype>
 #include <chrono>
 
 namespace kugel::server {
@@ -36,22 +39,13 @@ http::response<http::string_body> text_response(http::request<http::string_body>
     return response;
 }
 
-/// The file a request path names under the web root, or nullopt for a path that tries to
-/// leave it or names no regular file.
-std::optional<std::filesystem::path> file_for(std::filesystem::path const& root,
-                                              std::string_view target)
+/// Whether a Sec-WebSocket-Key is what RFC 6455 §4.2.1 requires: the base64 of 16 bytes,
+/// which is 22 characters of the base64 alphabet and "==".
+bool valid_websocket_key(std::string_view key)
 {
-    std::string_view path = target.substr(0, target.find_first_of("?#"));
-    if (path.empty() || path.front() != '/' || path.find("..") != std::string_view::npos ||
-        path.find('\0') != std::string_view::npos || path.find('\\') != std::string_view::npos)
-        return std::nullopt;
-    std::filesystem::path file = root / std::filesystem::path(path.substr(1));
-    std::error_code ec;
-    if (std::filesystem::is_directory(file, ec))
-        file /= "index.html";
-    if (!std::filesystem::is_regular_file(file, ec))
-        return std::nullopt;
-    return file;
+    auto const base64 = [](unsigned char c) { return std::isalnum(c) || c == '+' || c == '/'; };
+    return key.size() == 24 && key.ends_with("==") &&
+           std::all_of(key.begin(), key.begin() + 22, base64);
 }
 
 /// Client text for a log line or an answer: at most 100 bytes, control characters as '?'.
@@ -68,34 +62,12 @@ std::string printable(std::string_view text)
 
 std::optional<std::string> room_of_target(std::string_view target)
 {
-    std::string_view path = target.substr(0, target.find_first_of("?#"));
+    std::string_view const path = path_of(target);
     if (path == "/ws" || path == "/ws/")
         return "default";
     if (path.starts_with("/ws/") && path.find('/', 4) == std::string_view::npos)
         return std::string(path.substr(4));
     return std::nullopt;
-}
-
-std::string_view mime_type(std::string_view path)
-{
-    auto const ends_with = [&](std::string_view ext) { return path.ends_with(ext); };
-    if (ends_with(".html") || ends_with(".htm"))
-        return "text/html; charset=utf-8";
-    if (ends_with(".js") || ends_with(".mjs"))
-        return "text/javascript; charset=utf-8";
-    if (ends_with(".css"))
-        return "text/css; charset=utf-8";
-    if (ends_with(".json") || ends_with(".map"))
-        return "application/json";
-    if (ends_with(".svg"))
-        return "image/svg+xml";
-    if (ends_with(".png"))
-        return "image/png";
-    if (ends_with(".ico"))
-        return "image/vnd.microsoft.icon";
-    if (ends_with(".txt") || ends_with(".md"))
-        return "text/plain; charset=utf-8";
-    return "application/octet-stream";
 }
 
 http_session::http_session(tcp::socket&& socket, std::shared_ptr<http_routes const> routes)
@@ -126,7 +98,24 @@ void http_session::on_read(beast::error_code ec, std::size_t)
         return fail(ec, "http read");
 
     http::request<http::string_body> request = parser_->release();
+    // A page whose name an attacker rebound to 127.0.0.1 sends its own name as Host: a
+    // server on loopback serves only loopback names and those it was told of.
+    if (routes_->check_host && !host_allowed(request[http::field::host], routes_->allowed_hosts)) {
+        std::string const shown = printable(request[http::field::host]);
+        auto const n = ++routes_->host_refusals;
+        if (n <= 10 || n % 100 == 0)
+            spdlog::info("refused a request for host {} ({} so far); --allow-host {} would allow it",
+                         shown, n, shown);
+        return send(text_response(request, http::status::forbidden,
+                                  "host " + shown + " is not served here: this server listens on "
+                                  "loopback and answers localhost, 127.0.0.1 and [::1]; start "
+                                  "kugel-server with --allow-host to name another\n"));
+    }
     if (websocket::is_upgrade(request)) {
+        if (!valid_websocket_key(request[http::field::sec_websocket_key]))
+            return send(text_response(request, http::status::bad_request,
+                                      "Sec-WebSocket-Key must be the base64 encoding of 16 bytes "
+                                      "(RFC 6455, section 4.2.1)\n"));
         // A browser lets any page open a WebSocket to any server, and says which page did in
         // Origin: only the server's own page and the origins it was told of are let in.
         std::string_view const origin = request[http::field::origin];
@@ -157,26 +146,26 @@ void http_session::on_read(beast::error_code ec, std::size_t)
         return send(text_response(request, http::status::method_not_allowed,
                                   "only GET and HEAD are served\n"));
     std::string_view const target = request.target();
-    if (target == "/healthz")
+    std::string_view const path = path_of(target); // probes may carry a query string
+    if (path == "/healthz")
         return send(text_response(request, http::status::ok, routes_->health(), "application/json"));
-    if (target == "/readyz") {
+    if (path == "/readyz") {
         auto [ready, body] = routes_->ready();
         return send(text_response(request, ready ? http::status::ok : http::status::service_unavailable,
                                   std::move(body), "application/json"));
     }
-    if (target == "/metrics")
+    if (path == "/metrics")
         return send(text_response(request, http::status::ok, routes_->metrics(), metrics_content_type));
 
     auto const file = routes_->web_root.empty() ? std::nullopt : file_for(routes_->web_root, target);
     if (!file)
-        return send(text_response(request, http::status::not_found,
-                                  "not found: " + std::string(target) + "\n"));
+        return send(text_response(request, http::status::not_found, "not found\n"));
     beast::error_code open_ec;
     http::file_body::value_type body;
     body.open(file->c_str(), beast::file_mode::scan, open_ec);
     if (open_ec)
         return send(text_response(request, http::status::internal_server_error,
-                                  "cannot read " + std::string(target) + "\n"));
+                                  "cannot read this file\n"));
     auto const size = body.size();
     if (request.method() == http::verb::head) {
         http::response<http::empty_body> response{http::status::ok, request.version()};

@@ -20,7 +20,13 @@ class room;
 /// room a WebSocket path names.
 struct http_routes
 {
-    std::filesystem::path web_root; ///< empty: no static files
+    std::filesystem::path web_root; ///< canonical (file_for); empty: no static files
+    /// Every request's Host must pass host_allowed (the server listens on loopback, or was
+    /// given hosts to allow).
+    bool check_host = false;
+    std::vector<std::string> allowed_hosts; ///< normalized_host's form
+    /// Requests refused for their Host, for rate-limiting the log.
+    mutable std::atomic<std::uint64_t> host_refusals{0};
     /// Origins allowed to upgrade besides the server's own (normalized_origin's form).
     std::vector<std::string> allowed_origins;
     /// Upgrades refused for their Origin, for rate-limiting the log.
@@ -61,8 +67,5 @@ private:
 /// The room a request target names: "/ws" is "default", "/ws/NAME" is NAME; nullopt for a
 /// path that is not a WebSocket path.
 std::optional<std::string> room_of_target(std::string_view target);
-
-/// The MIME type for a file name's extension.
-std::string_view mime_type(std::string_view path);
 
 } // namespace kugel::server

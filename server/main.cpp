@@ -159,6 +159,12 @@ int main(int argc, char** argv)
                    "(repeatable; '*' allows every origin). The server's own page is always let\n"
                    "in, and so are programs, which send no Origin; other pages get HTTP 403")
         ->take_all();
+    app.add_option("--allow-host", options.allowed_hosts,
+                   "A server listening on loopback answers only requests whose Host is loopback\n"
+                   "(localhost, 127.0.0.1, [::1]): a web page whose name was rebound to\n"
+                   "127.0.0.1 gets HTTP 403. Name another host to answer it too (repeatable,\n"
+                   "without a port; '*' answers every host)")
+        ->take_all();
     app.add_option("--admin-token", options.admin_token,
                    "A client whose hello carries this admin_token is an admin: it may pause,\n"
                    "resume, reset a room, load a scene into it and remove any body. Without\n"

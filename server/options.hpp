@@ -69,6 +69,10 @@ struct server_options
     /// (scheme://host[:port], or "*" for every origin). Upgrades without Origin (programs,
     /// not browsers) are always let in.
     std::vector<std::string> allowed_origins;
+    /// Host names, besides loopback ones, that a server listening on loopback answers
+    /// (normalized_host's form, or "*" for every host); with any given, a server on another
+    /// address checks hosts too. Other requests get HTTP 403 (DNS rebinding).
+    std::vector<std::string> allowed_hosts;
     /// What a hello's admin_token must be for the connection to be an admin (pause, resume,
     /// reset, load_scene, remove any body); empty: nobody is an admin.
     std::string admin_token;

@@ -1,5 +1,7 @@
 #include "origin_check.hpp"
 
+#include <arpa/inet.h>
+
 #include <algorithm>
 #include <cctype>
 #include <optional>
@@ -108,6 +110,41 @@ bool origin_allowed(std::string_view origin, std::string_view host,
     return from->host == to->host &&
            (from->port.empty() ? implied : std::string_view(from->port)) ==
                (to->port.empty() ? implied : std::string_view(to->port));
+}
+
+bool is_loopback_host(std::string_view host)
+{
+    auto const a = split_authority(host);
+    if (!a)
+        return false;
+    std::string const& name = a->host;
+    if (name == "localhost" || name.ends_with(".localhost") || name == "[::1]")
+        return true;
+    in_addr v4{};
+    return inet_pton(AF_INET, name.c_str(), &v4) == 1 &&
+           (ntohl(v4.s_addr) >> 24) == 127; // 127.0.0.0/8
+}
+
+std::string normalized_host(std::string_view host)
+{
+    if (host == "*")
+        return "*";
+    auto const a = split_authority(host);
+    if (!a || !a->port.empty())
+        throw std::invalid_argument("host '" + std::string(host) +
+                                    "' must be a host name or address without a port, such as "
+                                    "kugel.example.org or 192.0.2.7 (or * for every host)");
+    return a->host;
+}
+
+bool host_allowed(std::string_view host, std::span<std::string const> allowed)
+{
+    if (host.empty() || is_loopback_host(host))
+        return true;
+    auto const a = split_authority(host);
+    if (!a)
+        return false;
+    return std::ranges::any_of(allowed, [&](std::string const& h) { return h == "*" || h == a->host; });
 }
 
 } // namespace kugel::server

@@ -13,6 +13,7 @@
 
 #include <boost/asio/signal_set.hpp>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <cmath>
@@ -167,9 +168,13 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
         add_room(r.name, scene::load_scene(r.scene_file), read_text(r.scene_file));
 
     auto routes = std::make_shared<http_routes>();
-    routes->web_root = options.web_root;
+    // Canonical, so that every file served can be checked to lie inside it (file_for).
+    if (!options.web_root.empty())
+        routes->web_root = std::filesystem::canonical(options.web_root);
     for (std::string const& origin : options.allowed_origins)
         routes->allowed_origins.push_back(normalized_origin(origin)); // throws for a bad one
+    for (std::string const& host : options.allowed_hosts)
+        routes->allowed_hosts.push_back(normalized_host(host)); // throws for a bad one
     state* const s = state_.get();
     routes->find_room = [s](std::string_view name) -> std::shared_ptr<room> {
         auto const it = s->rooms.find(name);
@@ -216,6 +221,8 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
         return std::pair{all_ready, body.dump() + "\n"};
     };
     auto const address = net::ip::make_address(options.host);
+    routes->check_host = (address.is_loopback() || !routes->allowed_hosts.empty()) &&
+                         std::ranges::find(routes->allowed_hosts, "*") == routes->allowed_hosts.end();
     state_->acceptor = std::make_shared<listener>(state_->io, tcp::endpoint{address, options.port},
                                                   std::move(routes));
 }

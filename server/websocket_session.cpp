@@ -146,8 +146,15 @@ void websocket_session::read_if_room()
     if (closing_)
         return;
     reading_paused_ = replies_.size() + awaiting_room_ >= limits_.max_queued_replies / 2;
-    if (!reading_paused_)
-        do_read();
+    if (reading_paused_) {
+        // No read is pending now, and the room holds its commands' senders weakly: without
+        // this the session would end (and its socket close with a reset) before the answers
+        // it owes come back.
+        held_while_paused_ = shared_from_this();
+        return;
+    }
+    held_while_paused_.reset();
+    do_read();
 }
 
 void websocket_session::handle_message(std::string_view text)
@@ -325,8 +332,10 @@ void websocket_session::write_next()
 void websocket_session::on_write(beast::error_code ec, std::size_t)
 {
     in_flight_.reset();
-    if (ec)
+    if (ec) {
+        held_while_paused_.reset(); // nothing more can be written: the answers have nowhere to go
         return fail(ec, "websocket write");
+    }
     write_next();
     if (reading_paused_)
         read_if_room();
@@ -339,6 +348,7 @@ void websocket_session::close_with(websocket::close_code code, std::string_view 
     closing_ = true;
     replies_.clear();
     latest_snapshot_.reset();
+    held_while_paused_.reset(); // the caller holds the session
     if (!accepted_)
         return drop_connection("closed before the handshake finished");
     // Beast runs a close after a pending write; if that write never finishes (the client
@@ -356,6 +366,7 @@ void websocket_session::drop_connection(char const* why)
     closing_ = true;
     replies_.clear();
     latest_snapshot_.reset();
+    held_while_paused_.reset(); // the caller holds the session
     beast::error_code ignored;
     beast::get_lowest_layer(ws_).socket().shutdown(tcp::socket::shutdown_both, ignored);
     beast::get_lowest_layer(ws_).close();

@@ -81,6 +81,8 @@ private:
     /// Commands handed to the room and not answered yet: each gets exactly one answer.
     std::size_t awaiting_room_ = 0;
     bool reading_paused_ = false; ///< too many answers owed: the next read waits for writes
+    /// The session itself while reading is paused: what keeps it alive until its answers come.
+    std::shared_ptr<websocket_session> held_while_paused_;
     bool accepted_ = false;
     bool closing_ = false; ///< a close was started or the connection dropped: write nothing more
 

@@ -1,6 +1,7 @@
 #include "support/http_get.hpp"
 
 #include <boost/asio/connect.hpp>
+#include <boost/asio/write.hpp>
 #include <boost/asio/io_context.hpp>
 #include <boost/asio/ip/tcp.hpp>
 #include <boost/beast/core.hpp>
@@ -27,6 +28,22 @@ http_reply round_trip(std::uint16_t port, http::request<http::empty_body> const&
 }
 
 } // namespace
+
+http_reply http_raw(std::uint16_t port, std::string const& request)
+{
+    boost::asio::io_context io;
+    boost::asio::ip::tcp::socket socket(io);
+    boost::asio::ip::tcp::resolver resolver(io);
+    boost::asio::connect(socket, resolver.resolve("127.0.0.1", std::to_string(port)));
+    boost::asio::write(socket, boost::asio::buffer(request));
+    beast::flat_buffer buffer;
+    http::response<http::string_body> response;
+    beast::error_code ec;
+    http::read(socket, buffer, response, ec);
+    if (ec)
+        return {};
+    return {response.result_int(), std::string(response[http::field::content_type]), response.body()};
+}
 
 http_reply http_get(std::uint16_t port, std::string const& target)
 {

@@ -23,4 +23,8 @@ http_reply http_get(std::uint16_t port, std::string const& target);
 http_reply websocket_upgrade(std::uint16_t port, std::string const& target,
                              std::string const& origin, std::string const& host);
 
+/// Writes `request` (raw bytes: a request line, headers, the blank line) to a fresh
+/// connection and reads one response; status 0 when the server closed without one.
+http_reply http_raw(std::uint16_t port, std::string const& request);
+
 } // namespace kugel::test_support
