@@ -306,7 +306,8 @@ constexpr auto fields(std::type_identity<body_columns>)
 constexpr auto fields(std::type_identity<snapshot>)
 {
     return std::tuple{member("tick", &snapshot::tick), member("time", &snapshot::time),
-                      with_default("paused", &snapshot::paused), member("bodies", &snapshot::bodies)};
+                      with_default("paused", &snapshot::paused), with_default("faults", &snapshot::faults),
+                      member("bodies", &snapshot::bodies)};
 }
 
 constexpr auto fields(std::type_identity<pong>)
@@ -342,6 +343,11 @@ void check_together(body_spec const& body, location const& at)
         (at / "density")
             .fail(error_code::bad_value, "needs a radius > 0 (a point mass has no volume; give "
                                          "mass)");
+    double const mass = mass_of(body);
+    if (!(mass > 0.0 && std::isfinite(mass) && std::isfinite(1.0 / mass)))
+        at.fail(error_code::bad_value, "the mass this gives, " + format(mass) +
+                                           " kg, is not a usable positive mass (it and its "
+                                           "inverse must be finite and > 0)");
 }
 
 void check_together(body_columns const& bodies, location const& at)
@@ -392,8 +398,11 @@ std::uint64_t safe_integer(json const& value, location const& at)
             refuse();
         return n;
     }
-    if (value.is_number_integer())
-        refuse(); // negative: non-negative integers are parsed as unsigned
+    if (value.is_number_integer()) { // negative: non-negative integers are parsed as unsigned
+        if (value.get<std::int64_t>() == 0)
+            return 0; // -0, which the parser reads as a signed zero
+        refuse();
+    }
     double const x = value.get<double>();
     if (!(x >= 0.0 && x <= static_cast<double>(max_safe_integer) && x == std::floor(x)))
         refuse();
@@ -957,6 +966,10 @@ std::string encode(snapshot const& message)
     w.raw(R"(,"time":)");
     w.number(message.time);
     w.raw(message.paused ? R"(,"paused":true)" : R"(,"paused":false)");
+    if (message.faults > 0) {
+        w.raw(R"(,"faults":)");
+        w.number(message.faults);
+    }
     w.raw(R"(,"bodies":{)");
     w.column("id", b.id);
     w.raw(",");

@@ -11,7 +11,7 @@ constexpr std::array<std::string_view, all_error_codes.size()> wire_names{
     "bad_json",      "bad_message", "unknown_type",         "missing_field",     "wrong_type",
     "not_finite",    "bad_value",   "unsupported_protocol", "unknown_body",      "outside_world",
     "overlaps_wall", "room_full",   "rate_limited",         "message_too_large",
-    "forbidden",     "too_many_bodies",
+    "forbidden",     "too_many_bodies", "overlaps_body",       "singular_force",
 };
 
 constexpr bool table_follows_the_enum()

@@ -27,6 +27,8 @@ enum class error_code {
     message_too_large, ///< a frame longer than limits.max_message_bytes
     forbidden,         ///< an admin command (or a wrong admin token) from a non-admin
     too_many_bodies,   ///< spawn while the client has limits.max_bodies_per_client bodies
+    overlaps_body,     ///< spawn puts a sphere into another sphere, in a room with collisions
+    singular_force,    ///< spawn gives a force beyond what the room can step (none holds it)
 };
 
 /// Every code, in declaration order.
@@ -36,7 +38,7 @@ inline constexpr std::array all_error_codes{
     error_code::bad_value,     error_code::unsupported_protocol, error_code::unknown_body,
     error_code::outside_world, error_code::overlaps_wall,        error_code::room_full,
     error_code::rate_limited,  error_code::message_too_large,    error_code::forbidden,
-    error_code::too_many_bodies,
+    error_code::too_many_bodies, error_code::overlaps_body,      error_code::singular_force,
 };
 
 /// The wire name of a code: "bad_json", "unknown_body", ...

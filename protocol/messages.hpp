@@ -8,6 +8,7 @@
 #include <array>
 #include <cstddef>
 #include <cstdint>
+#include <numbers>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -56,6 +57,16 @@ struct body_spec
 
     bool operator==(body_spec const&) const = default;
 };
+
+/// The mass a spawn's body has: its mass, or density · 4/3 · π · radius³ (the engine's
+/// formula, to the bit).
+inline double mass_of(body_spec const& body)
+{
+    if (body.mass)
+        return *body.mass;
+    double const r = body.radius;
+    return body.density.value_or(0.0) * 4.0 / 3.0 * std::numbers::pi * r * r * r;
+}
 
 struct spawn
 {
@@ -263,6 +274,9 @@ struct snapshot
     std::uint64_t tick = 0; ///< ticks completed
     double time = 0.0;      ///< s of simulated time
     bool paused = false;    ///< an admin paused the room: ticks go on, time stands still
+    /// Steps the room could not take, and recovered from by removing the bodies that made
+    /// them impossible, since it started; written only when > 0.
+    std::uint64_t faults = 0;
     body_columns bodies;
 
     bool operator==(snapshot const&) const = default;

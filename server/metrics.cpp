@@ -193,6 +193,9 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     per_room({"kugel_late_ticks_total", "counter",
               "Ticks a room dropped because it fell more than 4 ticks behind its clock."},
              [&](room const& r) { return load(r.counters().late_ticks); });
+    per_room({"kugel_step_faults_total", "counter",
+              "Steps a room could not take (a singular force, a state beyond a double), each recovered from by removing the bodies at fault."},
+             [&](room const& r) { return load(r.counters().step_faults); });
     per_room({"kugel_clients", "gauge", "WebSocket clients in a room."},
              [&](room const& r) { return load(r.counters().sessions); });
     per_room({"kugel_bodies", "gauge", "Bodies in a room's world."},

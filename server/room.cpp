@@ -8,6 +8,8 @@
 #include <fmt/format.h>
 #include <spdlog/spdlog.h>
 
+#include <fmt/ranges.h>
+
 #include <algorithm>
 #include <cmath>
 #include <ctime>
@@ -151,6 +153,12 @@ bool room::write(checkpoint const& c, clock::duration take_cost)
 {
     std::filesystem::path const file = checkpoint_file();
     try {
+        // A world the room could not step again is never written over the last good one.
+        // (step_world keeps the world finite; this is the guard should anything slip by.)
+        for (checkpoint::body const& b : c.bodies)
+            if (!(b.desc.position.allFinite() && b.desc.velocity.allFinite()))
+                throw std::runtime_error(fmt::format("body {} is not finite; the last good "
+                                                     "checkpoint stays", b.wire_id));
         auto const started = clock::now();
         std::string const text = encode_checkpoint(c);
         auto const encoded = clock::now();
@@ -338,16 +346,29 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from, bool adm
                                           "overlaps obstacle {}",
                                           body.radius, describe(body.position), k));
     }
+    if (auto const other = overlapped_sphere(x, body.radius))
+        return refuse_spawn(error_code::overlaps_body,
+                            fmt::format("/body/position: a sphere of radius {} m at {} overlaps "
+                                        "body {}; spheres collide here, and one inside another "
+                                        "cannot be", body.radius, describe(body.position), *other));
     physics::body_desc desc;
     desc.position = x;
     desc.velocity = from_wire(body.velocity);
     desc.radius = body.radius;
     desc.charge = body.charge;
-    desc.mass = body.mass ? *body.mass : physics::mass_from_density(*body.density, body.radius);
-    if (!(desc.mass > 0.0) || !std::isfinite(1.0 / desc.mass))
-        return refuse_spawn(error_code::bad_value,
-                            fmt::format("/body: the mass this gives, {} kg, is not a usable "
-                                        "positive mass", desc.mass));
+    desc.mass = protocol::mass_of(body); // usable: the decoder checked it
+    // No force may be one no step can hold: beyond a double, or a change of speed by c in
+    // one step. A step that still fails is recovered from (step_world), but it costs the
+    // bodies that made it fail.
+    if (auto const refusal = world_.check_addition(desc, {protocol::speed_of_light / dt_}))
+        return refuse_spawn(error_code::singular_force,
+                            fmt::format("/body: its {} with body {} ({} m away, softening {} m) "
+                                        "would be a force of {} N, accelerating at {} m/s², "
+                                        "which no step of {} s can hold (the speed would change "
+                                        "by c or more, or the force is beyond a double)",
+                                        refusal->model, wire_id_of_slot(refusal->other),
+                                        refusal->distance, refusal->softening, refusal->force,
+                                        refusal->acceleration, dt_));
     std::uint64_t id = 0;
     try {
         id = add_body(desc);
@@ -394,14 +415,7 @@ void room::apply(protocol::remove const& remove, websocket_session& from, bool a
                                   owner == owner_of_wire_id_.end() ? "came with the scene"
                                                                    : "was spawned by another client"));
     world_.remove_body(*body);
-    body_of_wire_id_.erase(remove.id);
-    if (owner != owner_of_wire_id_.end()) {
-        auto const count = bodies_of_client_.find(owner->second);
-        if (count != bodies_of_client_.end() && --count->second == 0)
-            bodies_of_client_.erase(count);
-        owner_of_wire_id_.erase(owner);
-    }
-    counters_.bodies = world_.bodies().size();
+    forget_body(remove.id);
     from.send_reply(share(protocol::encode(protocol::ack{remove.ref, counters_.ticks + 1, {}})));
 }
 
@@ -489,7 +503,6 @@ void room::replace_world(scene::scene s)
     welcome_ = std::move(welcome);
     dt_ = s.dt;
     send_charges_ = s.forces.coulomb.has_value();
-    step_failed_ = false;
     wire_id_of_index_.clear();
     body_of_wire_id_.clear();
     owner_of_wire_id_.clear();
@@ -516,6 +529,38 @@ std::optional<physics::body_id> room::find_body(std::uint64_t wire_id, std::uint
     return std::nullopt;
 }
 
+std::uint64_t room::wire_id_of_slot(std::size_t slot) const
+{
+    return wire_id_of_index_[world_.bodies().ids()[slot].index];
+}
+
+std::optional<std::uint64_t> room::overlapped_sphere(physics::vec3 const& x, double radius) const
+{
+    if (!(radius > 0.0) || world_.settings().collisions.mode == physics::collision_mode::off)
+        return std::nullopt; // point masses never collide; nor does anything with collisions off
+    auto const positions = world_.bodies().positions();
+    auto const radii = world_.bodies().radii();
+    for (std::size_t i = 0; i < positions.size(); ++i) {
+        double const reach = radius + radii[i];
+        if (radii[i] > 0.0 && (positions[i] - x).squaredNorm() < reach * reach)
+            return wire_id_of_slot(i);
+    }
+    return std::nullopt;
+}
+
+void room::forget_body(std::uint64_t wire_id)
+{
+    body_of_wire_id_.erase(wire_id);
+    auto const owner = owner_of_wire_id_.find(wire_id);
+    if (owner != owner_of_wire_id_.end()) {
+        auto const count = bodies_of_client_.find(owner->second);
+        if (count != bodies_of_client_.end() && --count->second == 0)
+            bodies_of_client_.erase(count);
+        owner_of_wire_id_.erase(owner);
+    }
+    counters_.bodies = world_.bodies().size();
+}
+
 std::uint64_t room::add_body(physics::body_desc const& desc)
 {
     physics::body_id const id = world_.add_body(desc);
@@ -534,16 +579,56 @@ void room::step_world()
         ++counters_.ticks;
         return;
     }
-    try {
-        world_.step(dt_);
-        step_failed_ = false;
-    } catch (physics::singular_force_error const& e) {
-        // The world is unchanged; it stays frozen until a command (a remove) clears it.
-        if (!step_failed_)
-            spdlog::error("room '{}': the world cannot step: {}", name_, e.what());
-        step_failed_ = true;
+    // A step that fails changes nothing (world::step); the newer of the two bodies it names
+    // is removed and the step is taken again, a few times at most in one tick, so that the
+    // room keeps its rate. A step that leaves a body's state non-finite (an overflow no check foresaw)
+    // loses that body. Either way the world that goes on is finite, and every snapshot,
+    // /healthz and /metrics count the fault.
+    constexpr int max_attempts = 4;
+    for (int attempt = 1; attempt <= max_attempts; ++attempt) {
+        try {
+            world_.step(dt_);
+            break;
+        } catch (physics::singular_force_error const& e) {
+            // Of the two, the body that came last goes: a client's body that runs into the
+            // scene's costs only that client.
+            auto const newer = [&](physics::body_id id) {
+                return world_.bodies().contains(id) ? wire_id_of_index_[id.index] : 0;
+            };
+            remove_after_fault({newer(e.first) > newer(e.second) ? e.first : e.second}, e.what());
+        }
     }
+    if (auto const broken = world_.non_finite_bodies(); !broken.empty())
+        remove_after_fault(broken, "the step left their position or velocity beyond the range of a double");
     ++counters_.ticks;
+}
+
+void room::remove_after_fault(std::vector<physics::body_id> const& bodies, std::string const& why)
+{
+    std::vector<std::uint64_t> removed;
+    for (physics::body_id const id : bodies) {
+        if (!world_.remove_body(id))
+            continue; // named twice
+        std::uint64_t const wire_id = wire_id_of_index_[id.index];
+        forget_body(wire_id);
+        removed.push_back(wire_id);
+    }
+    ++counters_.step_faults;
+    std::string text = fmt::format("tick {}: the world could not step ({}); removed {} {}",
+                                   counters_.ticks.load() + 1, why,
+                                   removed.size() == 1 ? "body" : "bodies", fmt::join(removed, ", "));
+    // One line per fault for the first few, then one in a hundred: a fault a tick must not
+    // flood the log.
+    if (counters_.step_faults <= 10 || counters_.step_faults % 100 == 0)
+        spdlog::error("room '{}': {} ({} faults so far)", name_, text, counters_.step_faults.load());
+    std::lock_guard const lock(last_fault_mutex_);
+    last_fault_ = std::move(text);
+}
+
+std::string room::last_fault() const
+{
+    std::lock_guard const lock(last_fault_mutex_);
+    return last_fault_;
 }
 
 bool room::snapshot_due()
@@ -563,6 +648,7 @@ protocol::snapshot room::copy_snapshot() const
     snapshot.tick = counters_.ticks;
     snapshot.time = world_.time();
     snapshot.paused = paused_;
+    snapshot.faults = counters_.step_faults;
     protocol::body_columns& columns = snapshot.bodies;
     columns.id.reserve(n);
     columns.position.reserve(3 * n);

@@ -14,6 +14,7 @@
 #include <chrono>
 #include <cstdint>
 #include <memory>
+#include <mutex>
 #include <string>
 #include <unordered_map>
 #include <vector>
@@ -32,6 +33,9 @@ struct room_counters
     std::atomic<std::uint64_t> snapshots{0};  ///< snapshots encoded and sent
     /// Snapshots due while the last was still being encoded: not taken (room::send_snapshot)
     std::atomic<std::uint64_t> snapshots_skipped{0};
+    /// Steps that failed (a singular force, a state beyond a double) and were recovered from
+    /// by removing the bodies at fault (room::step_world)
+    std::atomic<std::uint64_t> step_faults{0};
 };
 
 /// One world and the clients watching it. Everything here runs on the room's strand: the
@@ -77,6 +81,9 @@ public:
 
     std::string const& name() const { return name_; }
     room_counters const& counters() const { return counters_; }
+    /// What the last step fault was and which bodies it cost; empty while there was none.
+    /// Any thread.
+    std::string last_fault() const;
     /// Counted by the room's sessions on their strands, read by /metrics from any thread.
     traffic_counters& traffic() { return traffic_; }
     traffic_counters const& traffic() const { return traffic_; }
@@ -160,6 +167,13 @@ private:
     bool write(checkpoint const& c, clock::duration take_cost);
 
     std::uint64_t add_body(physics::body_desc const& desc); ///< the new body's wire id
+    std::uint64_t wire_id_of_slot(std::size_t slot) const;
+    /// The sphere that a sphere at x of this radius would overlap, when spheres collide.
+    std::optional<std::uint64_t> overlapped_sphere(physics::vec3 const& x, double radius) const;
+    /// Drops a body the world no longer holds from the ids, owners and counts.
+    void forget_body(std::uint64_t wire_id);
+    /// Removes the bodies a failed step names, and records the fault.
+    void remove_after_fault(std::vector<physics::body_id> const& bodies, std::string const& why);
     /// The body a command names, or nothing after answering it with unknown_body.
     std::optional<physics::body_id> find_body(std::uint64_t wire_id, std::uint64_t ref,
                                               websocket_session& from);
@@ -224,7 +238,8 @@ private:
     tick_phases report_worst_{}; ///< the costliest tick since the last log line
     std::atomic<std::uint64_t> report_bytes_{0}; ///< snapshot bytes, added by the encoder
     clock::time_point last_late_warning_{};
-    bool step_failed_ = false; ///< the world cannot step (a singular force); logged once
+    mutable std::mutex last_fault_mutex_;
+    std::string last_fault_; ///< room::last_fault
 };
 
 } // namespace kugel::server

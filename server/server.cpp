@@ -192,11 +192,15 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
     };
     routes->health = [s] {
         nlohmann::ordered_json health{{"status", s->stopping ? "stopping" : "ok"}};
-        for (auto const& [name, r] : s->rooms)
+        for (auto const& [name, r] : s->rooms) {
             health["rooms"][name] = {{"ticks", r->counters().ticks.load()},
                                      {"bodies", r->counters().bodies.load()},
                                      {"clients", r->counters().sessions.load()},
-                                     {"late_ticks", r->counters().late_ticks.load()}};
+                                     {"late_ticks", r->counters().late_ticks.load()},
+                                     {"step_faults", r->counters().step_faults.load()}};
+            if (auto fault = r->last_fault(); !fault.empty())
+                health["rooms"][name]["last_fault"] = std::move(fault);
+        }
         return health.dump() + "\n";
     };
     routes->metrics = [s] {

@@ -10,17 +10,6 @@ namespace kugel::physics {
 
 namespace {
 
-[[noreturn]] void throw_singular(std::string_view model, body_storage const& bodies,
-                                 std::span<vec3 const> x, std::size_t i, std::size_t j)
-{
-    std::ostringstream out;
-    out << model << " (tree) is singular: bodies " << to_string(bodies.ids()[i]) << " and "
-        << to_string(bodies.ids()[j]) << " are at distance " << (x[j] - x[i]).norm()
-        << " (positions " << x[i].transpose() << " and " << x[j].transpose()
-        << "), where 1/r^2 overflows; give the model a softening > 0";
-    throw singular_force_error(out.str());
-}
-
 void check_parameters(std::string_view model, char const* constant, double value,
                       double softening, double theta)
 {
@@ -219,9 +208,17 @@ void tree_gravity::add_forces(body_storage const& bodies, std::span<vec3 const> 
     for (std::size_t const i : tree.bodies()) { // tree order: neighbours walk alike
         auto const s = tree.field_at(x[i], i, softening_, false);
         if (s.singular_with != source_tree::no_body)
-            throw_singular(name(), bodies, x, i, s.singular_with);
+            throw_singular_pair(name(), G_ * m[i] * m[s.singular_with], softening_, bodies, x, i, s.singular_with);
         forces[i] += (G_ * m[i]) * s.field;
     }
+}
+
+std::optional<addition_refusal> tree_gravity::check_addition(body_storage const& bodies,
+                                                             body_desc const& candidate,
+                                                             addition_limits const& limits) const
+{
+    return check_inverse_square_addition(name(), G_, softening_, bodies.masses(), candidate.mass,
+                                         bodies, candidate, limits);
 }
 
 double tree_gravity::potential_energy(body_storage const& bodies, std::span<vec3 const> x) const
@@ -233,7 +230,7 @@ double tree_gravity::potential_energy(body_storage const& bodies, std::span<vec3
     for (std::size_t const i : tree.bodies()) {
         auto const s = tree.field_at(x[i], i, softening_, true);
         if (s.singular_with != source_tree::no_body)
-            throw_singular(name(), bodies, x, i, s.singular_with);
+            throw_singular_pair(name(), G_ * m[i] * m[s.singular_with], softening_, bodies, x, i, s.singular_with);
         sum += m[i] * s.potential;
     }
     return -0.5 * G_ * sum;
@@ -278,11 +275,19 @@ void tree_coulomb::add_forces(body_storage const& bodies, std::span<vec3 const> 
             auto const minus = trees.negative.field_at(x[i], i, softening_, false);
             for (std::size_t const j : {plus.singular_with, minus.singular_with})
                 if (j != source_tree::no_body)
-                    throw_singular(name(), bodies, x, i, j);
+                    throw_singular_pair(name(), -k_ * q[i] * q[j], softening_, bodies, x, i, j);
             // F_i = −k·q_i·Σ q_j·(x_j − x_i)/r³: like charges repel.
             forces[i] -= (k_ * q[i]) * (plus.field - minus.field);
         }
     }
+}
+
+std::optional<addition_refusal> tree_coulomb::check_addition(body_storage const& bodies,
+                                                             body_desc const& candidate,
+                                                             addition_limits const& limits) const
+{
+    return check_inverse_square_addition(name(), -k_, softening_, bodies.charges(), candidate.charge,
+                                         bodies, candidate, limits);
 }
 
 double tree_coulomb::potential_energy(body_storage const& bodies, std::span<vec3 const> x) const
@@ -296,7 +301,7 @@ double tree_coulomb::potential_energy(body_storage const& bodies, std::span<vec3
             auto const minus = trees.negative.field_at(x[i], i, softening_, true);
             for (std::size_t const j : {plus.singular_with, minus.singular_with})
                 if (j != source_tree::no_body)
-                    throw_singular(name(), bodies, x, i, j);
+                    throw_singular_pair(name(), -k_ * q[i] * q[j], softening_, bodies, x, i, j);
             sum += q[i] * (plus.potential - minus.potential);
         }
     }

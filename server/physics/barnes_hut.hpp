@@ -98,6 +98,8 @@ public:
     void add_forces(body_storage const& bodies, std::span<vec3 const> x,
                     std::span<vec3> forces) const override;
     double potential_energy(body_storage const& bodies, std::span<vec3 const> x) const override;
+    std::optional<addition_refusal> check_addition(body_storage const& bodies, body_desc const& candidate,
+                                                   addition_limits const& limits) const override;
 
     double G() const { return G_; }
     double softening() const { return softening_; }
@@ -126,6 +128,8 @@ public:
     void add_forces(body_storage const& bodies, std::span<vec3 const> x,
                     std::span<vec3> forces) const override;
     double potential_energy(body_storage const& bodies, std::span<vec3 const> x) const override;
+    std::optional<addition_refusal> check_addition(body_storage const& bodies, body_desc const& candidate,
+                                                   addition_limits const& limits) const override;
 
     double k() const { return k_; }
     double softening() const { return softening_; }

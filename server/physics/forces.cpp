@@ -7,17 +7,6 @@ namespace kugel::physics {
 
 namespace {
 
-[[noreturn]] void throw_singular(std::string_view model, body_storage const& bodies,
-                                 std::span<vec3 const> x, std::size_t i, std::size_t j)
-{
-    std::ostringstream out;
-    out << model << " is singular: bodies " << to_string(bodies.ids()[i]) << " and "
-        << to_string(bodies.ids()[j]) << " are at distance " << (x[j] - x[i]).norm()
-        << " (positions " << x[i].transpose() << " and " << x[j].transpose()
-        << "), where 1/r^2 overflows; give the model a softening > 0";
-    throw singular_force_error(out.str());
-}
-
 void check_parameter(bool ok, char const* what)
 {
     if (!ok)
@@ -46,7 +35,7 @@ void add_inverse_square_forces(std::string_view model, double softening,
             double const inv_r = 1.0 / std::sqrt(r2);
             double const scale = s * inv_r * inv_r * inv_r;
             if (!std::isfinite(scale))
-                throw_singular(model, bodies, x, i, j);
+                throw_singular_pair(model, s, softening, bodies, x, i, j);
             vec3 const f = scale * d;
             fi += f;
             forces[j] -= f;
@@ -70,7 +59,7 @@ double inverse_square_potential(std::string_view model, double softening,
                 continue;
             double const term = s / std::sqrt((x[j] - x[i]).squaredNorm() + eps2);
             if (!std::isfinite(term))
-                throw_singular(model, bodies, x, i, j);
+                throw_singular_pair(model, s, softening, bodies, x, i, j);
             u += term;
         }
     }
@@ -78,6 +67,55 @@ double inverse_square_potential(std::string_view model, double softening,
 }
 
 } // namespace
+
+void throw_singular_pair(std::string_view model, double coupling, double softening,
+                         body_storage const& bodies, std::span<vec3 const> x, std::size_t i,
+                         std::size_t j)
+{
+    double const r = (x[j] - x[i]).norm();
+    std::ostringstream out;
+    out << model << " is singular: bodies " << to_string(bodies.ids()[i]) << " and "
+        << to_string(bodies.ids()[j]) << " at distance " << r << " m (positions "
+        << x[i].transpose() << " and " << x[j].transpose() << "; softening " << softening
+        << " m) pull with a force beyond the range of a double; ";
+    if (!std::isfinite(coupling))
+        out << "their coupling (" << model << "'s constant times their "
+            << (model == "coulomb" ? "charges" : "masses") << ") overflows: use smaller ones";
+    else if (softening == 0.0)
+        out << "they coincide, where 1/r^2 overflows: give the model a softening > 0";
+    else
+        out << "their coupling " << coupling << " is too large for that distance: use smaller "
+            << (model == "coulomb" ? "charges" : "masses") << " or a larger softening";
+    throw singular_force_error(out.str(), bodies.ids()[i], bodies.ids()[j]);
+}
+
+std::optional<addition_refusal> check_inverse_square_addition(
+    std::string_view model, double constant, double softening, std::span<double const> strength,
+    double candidate_strength, body_storage const& bodies, body_desc const& candidate,
+    addition_limits const& limits)
+{
+    double const eps2 = softening * softening;
+    double const inverse_mass = candidate.is_static ? 0.0 : 1.0 / candidate.mass;
+    auto const x = bodies.positions();
+    auto const inverse_masses = bodies.inverse_masses();
+    for (std::size_t j = 0; j < x.size(); ++j) {
+        double const s = constant * candidate_strength * strength[j];
+        if (s == 0.0)
+            continue;
+        double const r = (x[j] - candidate.position).norm();
+        double const inv_r = 1.0 / std::sqrt(r * r + eps2);
+        // |F| = |s|·r/(r² + ε²)^{3/2}, as the force loop computes it; NaN and ∞ fail too.
+        double const force = std::abs(s * inv_r * inv_r * inv_r) * r;
+        double const acceleration = force * std::max(inverse_mass, inverse_masses[j]);
+        bool const singular = !std::isfinite(s * inv_r * inv_r * inv_r);
+        if (singular || !(force <= addition_limits::max_pair_force) ||
+            !(acceleration < limits.max_acceleration))
+            return addition_refusal{model, j, r, softening,
+                                    singular ? std::numeric_limits<double>::infinity() : force,
+                                    singular ? std::numeric_limits<double>::infinity() : acceleration};
+    }
+    return std::nullopt;
+}
 
 void uniform_field::add_forces(body_storage const& bodies, std::span<vec3 const>,
                                std::span<vec3> forces) const
@@ -111,6 +149,14 @@ void newtonian_gravity::add_forces(body_storage const& bodies, std::span<vec3 co
                               [&](std::size_t i, std::size_t j) { return G_ * m[i] * m[j]; });
 }
 
+std::optional<addition_refusal> newtonian_gravity::check_addition(body_storage const& bodies,
+                                                                  body_desc const& candidate,
+                                                                  addition_limits const& limits) const
+{
+    return check_inverse_square_addition(name(), G_, softening_, bodies.masses(), candidate.mass,
+                                         bodies, candidate, limits);
+}
+
 double newtonian_gravity::potential_energy(body_storage const& bodies,
                                            std::span<vec3 const> x) const
 {
@@ -133,6 +179,14 @@ void coulomb::add_forces(body_storage const& bodies, std::span<vec3 const> x,
     auto const q = bodies.charges();
     add_inverse_square_forces(name(), softening_, bodies, x, forces,
                               [&](std::size_t i, std::size_t j) { return -k_ * q[i] * q[j]; });
+}
+
+std::optional<addition_refusal> coulomb::check_addition(body_storage const& bodies,
+                                                        body_desc const& candidate,
+                                                        addition_limits const& limits) const
+{
+    return check_inverse_square_addition(name(), -k_, softening_, bodies.charges(), candidate.charge,
+                                         bodies, candidate, limits);
 }
 
 double coulomb::potential_energy(body_storage const& bodies, std::span<vec3 const> x) const

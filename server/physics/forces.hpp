@@ -3,6 +3,8 @@
 #include "body_storage.hpp"
 #include "vec.hpp"
 
+#include <limits>
+#include <optional>
 #include <span>
 #include <stdexcept>
 #include <string>
@@ -10,12 +12,40 @@
 
 namespace kugel::physics {
 
-/// Thrown when a force is singular: two bodies coincide (or nearly so) under a 1/r² law with
-/// softening 0. The step that hit it changes nothing; the message names the bodies and the fix.
+/// Thrown when a force is singular: a 1/r² law between two bodies gives what no double
+/// holds, because they coincide (or nearly so) with softening 0, or because their coupling
+/// (G·m·m, k·q·q) overflows. The step that hit it changes nothing; the message names the
+/// bodies, the cause and the fix, and `first`, `second` the bodies.
 class singular_force_error : public std::runtime_error
 {
 public:
-    using std::runtime_error::runtime_error;
+    singular_force_error(std::string const& what, body_id a, body_id b)
+        : std::runtime_error(what), first(a), second(b)
+    {
+    }
+    body_id first, second;
+};
+
+/// What a body may add to a world's forces (force_model::check_addition): no pair force
+/// above max_pair_force (N), so that the sum over any number of bodies a world can hold
+/// stays finite; and no acceleration of either body of a pair at or above max_acceleration
+/// (m/s²).
+struct addition_limits
+{
+    double max_acceleration = std::numeric_limits<double>::infinity();
+    static constexpr double max_pair_force = 1e300;
+};
+
+/// Why a body may not be added: the pair (with the body in slot `other`) whose force would
+/// pass the limits, and its figures (a figure that overflowed is infinite).
+struct addition_refusal
+{
+    std::string_view model; ///< the force model's name
+    std::size_t other;      ///< the slot of the other body of the pair
+    double distance;        ///< m, between the two
+    double softening;       ///< m, the model's
+    double force;           ///< N, the pair's
+    double acceleration;    ///< m/s², the larger of the pair's two
 };
 
 /// A force law. The world holds only the models its scene names, so a scene without forces
@@ -39,6 +69,16 @@ public:
     /// True when the force on each body does not depend on where the bodies are: then the
     /// exact constant-force integrator is exact.
     virtual bool is_constant() const { return false; }
+
+    /// Why adding `candidate` to `bodies` would give a force beyond `limits` at the bodies'
+    /// positions now; nothing when it would not. O(n): each pair with the candidate.
+    virtual std::optional<addition_refusal> check_addition(body_storage const& bodies,
+                                                           body_desc const& candidate,
+                                                           addition_limits const& limits) const
+    {
+        (void)bodies, (void)candidate, (void)limits;
+        return std::nullopt;
+    }
 };
 
 /// F = m·g, the lecture's [0, 0, −m·g] for g = (0, 0, −9.81). Potential U = −Σ m·(g·x).
@@ -73,6 +113,8 @@ public:
     void add_forces(body_storage const& bodies, std::span<vec3 const> x,
                     std::span<vec3> forces) const override;
     double potential_energy(body_storage const& bodies, std::span<vec3 const> x) const override;
+    std::optional<addition_refusal> check_addition(body_storage const& bodies, body_desc const& candidate,
+                                                   addition_limits const& limits) const override;
 
     double G() const { return G_; }
     double softening() const { return softening_; }
@@ -95,6 +137,8 @@ public:
     void add_forces(body_storage const& bodies, std::span<vec3 const> x,
                     std::span<vec3> forces) const override;
     double potential_energy(body_storage const& bodies, std::span<vec3 const> x) const override;
+    std::optional<addition_refusal> check_addition(body_storage const& bodies, body_desc const& candidate,
+                                                   addition_limits const& limits) const override;
 
     double k() const { return k_; }
     double softening() const { return softening_; }
@@ -103,5 +147,23 @@ private:
     double k_;
     double softening_;
 };
+
+// Shared by the direct and the tree (barnes_hut.hpp) forms of the two 1/r² laws.
+
+/// Throws singular_force_error for the pair (i, j) at positions `x` of the 1/r² law `model`,
+/// whose signed strength for the pair is `coupling` (G·m_i·m_j, −k·q_i·q_j): the message says
+/// whether the bodies coincide with softening 0 (give a softening) or the coupling is too
+/// large for a double at their distance (smaller masses or charges).
+[[noreturn]] void throw_singular_pair(std::string_view model, double coupling, double softening,
+                                      body_storage const& bodies, std::span<vec3 const> x,
+                                      std::size_t i, std::size_t j);
+
+/// check_addition of a 1/r² law whose coupling of bodies a and b is
+/// constant · strength[a] · strength[b] (gravity: G and the masses; Coulomb: −k and the
+/// charges), `candidate_strength` the candidate's.
+std::optional<addition_refusal> check_inverse_square_addition(
+    std::string_view model, double constant, double softening, std::span<double const> strength,
+    double candidate_strength, body_storage const& bodies, body_desc const& candidate,
+    addition_limits const& limits);
 
 } // namespace kugel::physics

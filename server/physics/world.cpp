@@ -188,10 +188,56 @@ void world::sort_bodies_by_cell()
     workspace_.invalidate();
 }
 
+std::vector<body_id> world::non_finite_bodies() const
+{
+    std::vector<body_id> out;
+    auto const x = bodies_.positions();
+    auto const v = bodies_.velocities();
+    for (std::size_t i = 0; i < x.size(); ++i)
+        if (!(x[i].allFinite() && v[i].allFinite()))
+            out.push_back(bodies_.ids()[i]);
+    return out;
+}
+
+std::optional<addition_refusal> world::check_addition(body_desc const& desc,
+                                                      addition_limits const& limits) const
+{
+    for (auto const& model : forces_)
+        if (auto refusal = model->check_addition(bodies_, desc, limits))
+            return refusal;
+    return std::nullopt;
+}
+
 void world::step(double dt)
 {
     if (!std::isfinite(dt) || dt < 0.0)
         throw std::invalid_argument("step dt must be finite and >= 0");
+    if (settings_.substeps > 1 && !forces_.empty()) {
+        // A force can fail in a later substep: the substeps before it are undone, so that
+        // a failed step changes nothing, as with one substep.
+        std::vector<vec3> const x(bodies_.positions().begin(), bodies_.positions().end());
+        std::vector<vec3> const v(bodies_.velocities().begin(), bodies_.velocities().end());
+        try {
+            substeps(dt);
+        } catch (singular_force_error const&) {
+            std::ranges::copy(x, bodies_.positions().begin());
+            std::ranges::copy(v, bodies_.velocities().begin());
+            workspace_.invalidate();
+            throw;
+        }
+    } else {
+        substeps(dt);
+    }
+    // Compensated (Kahan) sum: after 10⁶ steps of 1/60 s the clock is still exact to an ulp.
+    double const increment = dt - time_compensation_;
+    double const sum = time_ + increment;
+    time_compensation_ = (sum - time_) - increment;
+    time_ = sum;
+    ++steps_;
+}
+
+void world::substeps(double dt)
+{
     double const h = dt / settings_.substeps;
     bool const colliding = settings_.collisions.mode != collision_mode::off && h > 0.0;
     for (int substep = 0; substep < settings_.substeps; ++substep) {
@@ -214,12 +260,6 @@ void world::step(double dt)
     if (colliding && settings_.collisions.mode == collision_mode::discrete &&
         bodies_.size() >= bodies_worth_sorting && steps_ % sort_interval == 0)
         sort_bodies_by_cell();
-    // Compensated (Kahan) sum: after 10⁶ steps of 1/60 s the clock is still exact to an ulp.
-    double const increment = dt - time_compensation_;
-    double const sum = time_ + increment;
-    time_compensation_ = (sum - time_) - increment;
-    time_ = sum;
-    ++steps_;
 }
 
 } // namespace kugel::physics

@@ -60,7 +60,8 @@ public:
     void add_obstacle(obstacle const& o);
 
     /// Advances the world by dt seconds (dt finite and >= 0, else std::invalid_argument).
-    /// Throws singular_force_error when a force is singular; the world is then unchanged.
+    /// Throws singular_force_error when a force is singular; the world is then unchanged
+    /// (with substeps too: a failing substep undoes those before it).
     /// A world of bodies_worth_sorting bodies or more in discrete mode also moves its bodies
     /// to new slots on every sort_interval-th step (ids stay; see bodies_worth_sorting).
     void step(double dt);
@@ -89,6 +90,12 @@ public:
 
     /// The deepest overlap left between spheres, or a sphere and a wall or box (m).
     double max_overlap() const;
+    /// The bodies whose position or velocity is no longer finite (a step overflowed), in
+    /// slot order.
+    std::vector<body_id> non_finite_bodies() const;
+    /// Why adding `desc` would give a force beyond `limits` (force_model::check_addition of
+    /// each model the world holds); nothing when it would not.
+    std::optional<addition_refusal> check_addition(body_desc const& desc, addition_limits const& limits) const;
     /// Dynamic spheres whose centre is behind a wall: they got out.
     std::size_t escaped() const;
     world_settings const& settings() const { return settings_; }
@@ -109,6 +116,7 @@ private:
     void integrate(double h);
     /// Moves the bodies into the last collision step's cell order (bodies_worth_sorting).
     void sort_bodies_by_cell();
+    void substeps(double dt); ///< what step(dt) does but advance the clock
     void keep_step_start_and_integrate(double h); ///< x₀, v₀ for the collisions, then integrate
 
     world_settings settings_;

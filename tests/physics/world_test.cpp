@@ -4,6 +4,7 @@
 
 #include <gtest/gtest.h>
 
+#include <limits>
 #include <random>
 
 namespace kugel::physics {
@@ -91,7 +92,7 @@ public:
     void add_forces(body_storage const&, std::span<vec3 const> x, std::span<vec3> f) const override
     {
         if (remaining_-- <= 0)
-            throw singular_force_error("failing force");
+            throw singular_force_error("failing force", body_id{}, body_id{});
         for (std::size_t i = 0; i < x.size(); ++i)
             f[i] += -x[i]; // a spring to the origin
     }
@@ -131,6 +132,46 @@ TEST(World, AStepThatFailsChangesNothing)
             }
         }
     }
+}
+
+// With substeps, a step whose later substep fails must undo the substeps before it.
+TEST(World, AStepWhoseLastSubstepFailsChangesNothing)
+{
+    for (auto const& entry : integrator_table()) {
+        auto make = [&](int calls) {
+            world w({.integrator = entry.kind, .substeps = 3});
+            w.add_force(std::make_unique<failing_force>(calls));
+            w.add_body(moving({1, 0, 0}, {0, 1, 0}));
+            w.add_body(moving({0, 2, 0}, {-1, 0, 0}));
+            return w;
+        };
+        world probe = make(1000);
+        probe.step(0.1);
+        int const per_step = static_cast<int>(probe.force_evaluations());
+        // One whole step, then two substeps of the next, then the failure.
+        world w = make(per_step + 2 * per_step / 3);
+        w.step(0.1);
+        std::vector<vec3> const x(w.bodies().positions().begin(), w.bodies().positions().end());
+        std::vector<vec3> const v(w.bodies().velocities().begin(), w.bodies().velocities().end());
+        EXPECT_THROW(w.step(0.1), singular_force_error) << entry.name;
+        EXPECT_EQ(w.steps(), 1U);
+        EXPECT_EQ(w.time(), 0.1);
+        for (std::size_t i = 0; i < 2; ++i) {
+            EXPECT_EQ(w.bodies().positions()[i], x[i]) << entry.name;
+            EXPECT_EQ(w.bodies().velocities()[i], v[i]) << entry.name;
+        }
+    }
+}
+
+TEST(World, NamesTheBodiesWhoseStateIsNotFinite)
+{
+    world w;
+    w.add_body(moving({1, 0, 0}, {0, 1, 0}));
+    body_id const fast = w.add_body(moving({0, 2, 0}, {1e308, 0, 0}));
+    w.add_body(moving({0, 3, 0}, {0, 0, 1}));
+    EXPECT_TRUE(w.non_finite_bodies().empty());
+    w.step(10.0); // 1e308 m/s for 10 s: a position beyond the range of a double
+    EXPECT_EQ(w.non_finite_bodies(), std::vector<body_id>{fast});
 }
 
 // After a removal the remaining bodies must feel only each other: the world equals one that

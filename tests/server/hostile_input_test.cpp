@@ -166,6 +166,13 @@ std::vector<hostile_case> catalogue()
          refused("bad_value", "/body", 30)},
         {"density whose mass overflows", spawn_at(31, "[1,1,1]", R"("radius":1,"density":1e308)"),
          refused("bad_value", "/body", 31)},
+        // Found as the message is read, before the walls are looked at: 1e200 m would
+        // otherwise be overlaps_wall at the tick.
+        {"radius whose mass overflows", spawn_at(34, "[1,1,1]", R"("radius":1e200,"density":1000)"),
+         refused("bad_value", "/body", 34)},
+        {"ref of -0", R"({"type":"ping","ref":-0})", answered_with{"pong", 0}},
+        {"ref of -0.0", R"({"type":"ping","ref":-0.0})", answered_with{"pong", 0}},
+        {"ref of -1e-300", R"({"type":"ping","ref":-1e-300})", refused("bad_value", "/ref")},
         {"impulse to an infinite speed",
          R"({"type":"impulse","ref":32,"id":)" + std::to_string(light_body) + R"(,"impulse":[1e305,0,0]})",
          refused("bad_value", "/impulse", 32)},

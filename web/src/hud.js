@@ -10,6 +10,8 @@ const max_messages = 4;
 const plain_words = {
   outside_world: 'that point is outside the world',
   overlaps_wall: 'the sphere would cross a wall or an obstacle',
+  overlaps_body: 'the sphere would sit inside another sphere',
+  singular_force: 'its forces would be too strong for the world to step',
   room_full: 'the room is full',
   too_many_bodies: 'you have as many spheres as one visitor may have; remove one first',
   forbidden: 'only an admin may do that',
