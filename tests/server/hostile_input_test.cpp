@@ -215,6 +215,8 @@ std::vector<hostile_case> catalogue()
         // Frames that are not one JSON object of a known type.
         {"binary frame", R"({"type":"ping","ref":60})", refused("bad_json", "/"), true},
         {"oversized frame", std::string(frame_limit + 1, ' '), closed_with{1009}},
+        // Still arriving when the server closes: its rest is drained, not reset (1006).
+        {"oversized frame of 4 MB", std::string(4 << 20, ' '), closed_with{1009}},
         {"unknown type", R"({"type":"teleport","ref":61})", refused("unknown_type", "/type", 61)},
         {"empty type", R"({"type":"","ref":62})", refused("unknown_type", "/type", 62)},
         {"type in capitals", R"({"type":"PING","ref":63})", refused("unknown_type", "/type", 63)},
