@@ -104,15 +104,13 @@ std::optional<addition_refusal> check_inverse_square_addition(
             continue;
         double const r = (x[j] - candidate.position).norm();
         double const inv_r = 1.0 / std::sqrt(r * r + eps2);
-        // |F| = |s|·r/(r² + ε²)^{3/2}, as the force loop computes it; NaN and ∞ fail too.
-        double const force = std::abs(s * inv_r * inv_r * inv_r) * r;
+        // |F| = |s|·r/(r² + ε²)^{3/2}, with the force loop's scale; a scale that is not
+        // finite is a singular pair (its force is then ∞, or NaN at r = 0: shown as ∞).
+        double const scale = s * inv_r * inv_r * inv_r;
+        double const force = std::isfinite(scale) ? std::abs(scale) * r : std::numeric_limits<double>::infinity();
         double const acceleration = force * std::max(inverse_mass, inverse_masses[j]);
-        bool const singular = !std::isfinite(s * inv_r * inv_r * inv_r);
-        if (singular || !(force <= addition_limits::max_pair_force) ||
-            !(acceleration < limits.max_acceleration))
-            return addition_refusal{model, j, r, softening,
-                                    singular ? std::numeric_limits<double>::infinity() : force,
-                                    singular ? std::numeric_limits<double>::infinity() : acceleration};
+        if (!(force <= addition_limits::max_pair_force && acceleration < limits.max_acceleration))
+            return addition_refusal{model, j, r, softening, force, acceleration};
     }
     return std::nullopt;
 }

@@ -215,13 +215,13 @@ void world::step(double dt)
     if (settings_.substeps > 1 && !forces_.empty()) {
         // A force can fail in a later substep: the substeps before it are undone, so that
         // a failed step changes nothing, as with one substep.
-        std::vector<vec3> const x(bodies_.positions().begin(), bodies_.positions().end());
-        std::vector<vec3> const v(bodies_.velocities().begin(), bodies_.velocities().end());
+        undo_x_.assign(bodies_.positions().begin(), bodies_.positions().end());
+        undo_v_.assign(bodies_.velocities().begin(), bodies_.velocities().end());
         try {
             substeps(dt);
         } catch (singular_force_error const&) {
-            std::ranges::copy(x, bodies_.positions().begin());
-            std::ranges::copy(v, bodies_.velocities().begin());
+            std::ranges::copy(undo_x_, bodies_.positions().begin());
+            std::ranges::copy(undo_v_, bodies_.velocities().begin());
             workspace_.invalidate();
             throw;
         }

@@ -128,6 +128,9 @@ private:
     mutable collision_workspace collision_workspace_;
     collision_stats collision_stats_;
     std::vector<vec3> step_start_x_, step_start_v_;
+    /// x, v before a step of several substeps with forces, restored should one fail (kept
+    /// from step to step, so the step allocates nothing once they have grown)
+    std::vector<vec3> undo_x_, undo_v_;
     std::vector<std::uint32_t> cell_order_; ///< scratch for sort_bodies_by_cell()
     parallel_for* loops_ = nullptr; ///< lent by the owner, or none
     std::size_t share_from_ = bodies_worth_sharing; ///< loops_ is used from this many bodies

@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
 #include <memory>
 #include <random>
 #include <vector>
@@ -236,6 +237,46 @@ TEST(ForceModels, SofteningMakesCoincidentBodiesHarmless)
     auto const f = forces_of(newtonian_gravity(1.0, 0.1), bodies);
     EXPECT_EQ(f[0], vec3::Zero()); // no direction, no force
     EXPECT_TRUE(std::isfinite(newtonian_gravity(1.0, 0.1).potential_energy(bodies, bodies.positions())));
+}
+
+// check_addition against the analytic pair: G = k = 1, strengths 1 and 2 (masses for
+// gravity, charges for Coulomb, each body of 1 kg so the acceleration is the force), 2 m
+// apart: |F| = 1·2/2² = 0.5 N. The check takes the force loop's arithmetic, so the figures
+// agree with the law to a few ulps (pair_tolerance).
+TEST(ForceModels, AdditionIsRefusedExactlyWhereThePairForcePassesTheLimits)
+{
+    for (auto const& model : pairwise_models(0.0)) {
+        SCOPED_TRACE(std::string(model->name()));
+        bool const gravity = model->name() == "gravity";
+        body_storage bodies;
+        bodies.add(gravity ? charge_at({0, 0, 0}, 0.0, 2.0) : charge_at({0, 0, 0}, 2.0));
+        body_desc const candidate = charge_at({2, 0, 0}, gravity ? 0.0 : 1.0, 1.0);
+
+        auto const refusal = model->check_addition(bodies, candidate, {.max_acceleration = 0.49});
+        ASSERT_TRUE(refusal);
+        EXPECT_EQ(refusal->model, model->name());
+        EXPECT_EQ(refusal->other, 0U);
+        EXPECT_EQ(refusal->distance, 2.0);
+        EXPECT_NEAR(refusal->force, 0.5, 0.5 * pair_tolerance);
+        EXPECT_NEAR(refusal->acceleration, 0.5, 0.5 * pair_tolerance); // the 1 kg body's
+        EXPECT_FALSE(model->check_addition(bodies, candidate, {.max_acceleration = 0.51}));
+
+        // On the other body's point: singular without softening, nothing with it.
+        body_desc on_top = candidate;
+        on_top.position = vec3::Zero();
+        auto const singular = model->check_addition(bodies, on_top, {});
+        ASSERT_TRUE(singular);
+        EXPECT_EQ(singular->force, std::numeric_limits<double>::infinity());
+        EXPECT_FALSE((gravity ? static_cast<force_model const&>(newtonian_gravity(1.0, 0.1))
+                              : static_cast<force_model const&>(coulomb(1.0, 0.1)))
+                         .check_addition(bodies, on_top, {}));
+
+        // A coupling beyond a double, far apart.
+        body_desc huge = candidate;
+        huge.position = {1e10, 0, 0};
+        (gravity ? huge.mass : huge.charge) = 1e308;
+        EXPECT_TRUE(model->check_addition(bodies, huge, {}));
+    }
 }
 
 TEST(ForceModels, RefuseBadParameters)
