@@ -3,6 +3,7 @@
 #include "websocket_session.hpp"
 
 #include "physics/obb.hpp"
+#include "physics/time_of_impact.hpp"
 #include "protocol/codec.hpp"
 
 #include <fmt/format.h>
@@ -540,11 +541,9 @@ std::optional<std::uint64_t> room::overlapped_sphere(physics::vec3 const& x, dou
         return std::nullopt; // point masses never collide; nor does anything with collisions off
     auto const positions = world_.bodies().positions();
     auto const radii = world_.bodies().radii();
-    for (std::size_t i = 0; i < positions.size(); ++i) {
-        double const reach = radius + radii[i];
-        if (radii[i] > 0.0 && (positions[i] - x).squaredNorm() < reach * reach)
+    for (std::size_t i = 0; i < positions.size(); ++i)
+        if (radii[i] > 0.0 && physics::spheres_overlap(x, radius, positions[i], radii[i]))
             return wire_id_of_slot(i);
-    }
     return std::nullopt;
 }
 
