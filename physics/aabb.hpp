@@ -2,6 +2,8 @@
 
 #include "vec.hpp"
 
+#include <algorithm>
+
 #include <span>
 
 namespace kugel::physics {
@@ -33,10 +35,15 @@ inline aabb merge(aabb const& a, aabb const& b)
 }
 
 /// The lecture's 1D rule on every axis: the intervals [aᵢ, bᵢ] meet exactly when
-/// max{aᵢ} <= min{bᵢ}. Touching boxes overlap.
+/// max{aᵢ} <= min{bᵢ}. Touching boxes overlap. The engine's one box test: the three axes are
+/// combined by & rather than &&, so that it compiles without branches (the broadphases run it
+/// on every candidate pair); discrete/kernels.hpp has its form for two spheres' boxes.
 inline bool overlaps(aabb const& a, aabb const& b)
 {
-    return (a.min.cwiseMax(b.min).array() <= a.max.cwiseMin(b.max).array()).all();
+    bool const x = std::max(a.min.x(), b.min.x()) <= std::min(a.max.x(), b.max.x());
+    bool const y = std::max(a.min.y(), b.min.y()) <= std::min(a.max.y(), b.max.y());
+    bool const z = std::max(a.min.z(), b.min.z()) <= std::min(a.max.z(), b.max.z());
+    return x & y & z;
 }
 
 } // namespace kugel::physics

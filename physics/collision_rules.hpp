@@ -5,6 +5,7 @@
 #include "body_path.hpp"
 #include "collision_response.hpp"
 #include "collisions.hpp"
+#include "wall_set.hpp"
 
 #include <cmath>
 
@@ -44,6 +45,85 @@ inline bool respond_to_surface(body_path& path, vec3 const& n, double surface, d
         path.x += (surface - path.x.dot(n)) * n;
     }
     return true;
+}
+
+/// The unit normal of a contact between spheres whose centres are d = x_a − x_b apart, from b
+/// to a (+z when the centres coincide, so that a pair always has one).
+inline vec3 contact_normal(vec3 const& d, double distance)
+{
+    return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
+}
+
+/// The two-sphere response both modes give a contact with unit normal n (from b to a): if the
+/// spheres close along n, the lecture's collision of two spheres with the scene's restitution
+/// e, or e = 0 when the outgoing normal speed e·|closing| would be below the rest threshold of
+/// their relative acceleration a_a − a_b. Returns false when they do not close.
+inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3 const& a_a, vec3& v_b,
+                                      double inverse_mass_b, vec3 const& a_b, vec3 const& n,
+                                      collision_settings const& settings, double h)
+{
+    double const closing = (v_a - v_b).dot(n);
+    if (!(closing < 0.0))
+        return false;
+    double const threshold = rest_threshold(settings, a_a - a_b, n, h);
+    double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
+    auto const w = collide_spheres(v_a, inverse_mass_a, v_b, inverse_mass_b, n, e);
+    v_a = w.first;
+    v_b = w.second;
+    return true;
+}
+
+/// Pushes a sphere (radius r, inverse mass 1/m) at x out of every wall it is inside; at each
+/// such wall, meet(wall) answers for its velocity.
+template <class Meet>
+void push_out_of_walls(wall_set const& walls, vec3& x, double r, double inverse_mass, Meet const& meet)
+{
+    if (r <= 0.0 || inverse_mass == 0.0 || walls.clear(x, r))
+        return;
+    for (wall const& w : walls.all) {
+        double const depth = w.surface.offset + r - w.surface.normal.dot(x);
+        if (depth <= 0.0)
+            continue;
+        x += depth * w.surface.normal;
+        meet(w);
+    }
+}
+
+/// Pushes a sphere out of every wall it is inside and removes its velocity v into that wall
+/// (the guarantee, after a continuous step, that rounding left no sphere inside a wall).
+inline void clamp_to_walls(wall_set const& walls, vec3& x, vec3& v, double r, double inverse_mass)
+{
+    push_out_of_walls(walls, x, r, inverse_mass, [&](wall const& w) {
+        vec3 const& n = w.surface.normal;
+        double const vn = v.dot(n);
+        if (vn < 0.0)
+            v -= vn * n;
+    });
+}
+
+/// A sphere (free acceleration a) moving into a wall it touches meets it by the wall's rule,
+/// as a bounce in the wall pass does: it leaves with the lecture's
+/// w = (1 − μ)·v_t − (1 − α)·v_n or, slower than the rest threshold, rests on the wall (no
+/// normal speed). Removing the normal speed outright would make every such meeting
+/// perfectly inelastic (bench/README.md, decisions). Returns whether v changed.
+inline bool meet_wall(wall const& w, vec3& v, vec3 const& a, collision_settings const& settings, double h)
+{
+    vec3 const& n = w.surface.normal;
+    if (!(v.dot(n) < 0.0))
+        return false;
+    v = reflect_off_plane(v, n, w.damping, w.friction);
+    double const outgoing = v.dot(n);
+    if (outgoing < rest_threshold(settings, a, n, h))
+        v -= outgoing * n;
+    return true;
+}
+
+/// The discrete step's clamp: pushed out of every wall it is inside, the sphere meets it
+/// (meet_wall) instead of losing its speed into it.
+inline void push_out_and_meet_walls(wall_set const& walls, vec3& x, vec3& v, double r, double inverse_mass,
+                                    vec3 const& a, collision_settings const& settings, double h)
+{
+    push_out_of_walls(walls, x, r, inverse_mass, [&](wall const& w) { meet_wall(w, v, a, settings, h); });
 }
 
 } // namespace kugel::physics::detail

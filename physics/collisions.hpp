@@ -3,10 +3,11 @@
 #include "aabb.hpp"
 #include "body_path.hpp"
 #include "broadphase.hpp"
+#include "physics/discrete/workspace.hpp"
 #include "obb.hpp"
 #include "parallel_for.hpp"
 #include "plane.hpp"
-#include "sphere_grid.hpp"
+#include "step_timings.hpp"
 #include "vec.hpp"
 
 #include <cstdint>
@@ -96,72 +97,29 @@ struct collision_bodies
     bool drift_pending = false;
 };
 
-/// Discrete mode: the sphere pairs of one slab of the sphere grid and what its passes changed.
-/// Spheres are named by their position in the grid's cell order.
-struct contact_slab
-{
-    std::vector<sphere_pair> near;      ///< boxes overlap, in resolution order
-    std::vector<sphere_pair> contacts;  ///< the near pairs that touch, in the same order
-    std::vector<vec3> normals;          ///< each contact's unit normal, from b to a
-    std::vector<std::uint32_t> copied;  ///< the spheres of its contacts that this slab lists
-    std::uint32_t first_copied = 0;     ///< where its copies start in the workspace's `moving`
-    std::vector<sphere_pair> moving_pairs; ///< its contacts, as positions in `moving`
-    std::vector<std::uint32_t> touched; ///< the spheres a pass changed that this slab lists
-    std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved (once per pass)
-    std::uint64_t responses = 0;        ///< sphere–sphere responses
-    bool changed = false;               ///< the last velocity pass changed a velocity
-};
-
-
-
-/// Discrete mode: what the wall pass did to one chunk of bodies.
-struct wall_chunk
-{
-    std::vector<std::uint32_t> moved; ///< the spheres that bounced
-    std::uint64_t responses = 0;      ///< sphere–wall responses
-    bool accelerated = false;         ///< some body's free motion changed its velocity
-    sphere_extent extent;             ///< of the bodies where the pass left them
-};
-
 /// Scratch space reused across steps.
 class collision_workspace
 {
 public:
+    discrete_workspace discrete; ///< discrete mode's
+    // Continuous mode's, and max_overlap()'s broadphase:
     broadphase_workspace broadphase;
     std::vector<aabb> boxes;
     std::vector<std::uint32_t> members; ///< body slot of each box
     std::vector<box_pair> pairs;
-    sphere_grid grid;                   ///< discrete mode: the spheres in cell order
-    std::vector<contact_slab> slabs;    ///< discrete mode: one per slab of the grid
-    std::vector<wall_chunk> wall_chunks; ///< discrete mode: one per chunk of bodies
-    std::vector<std::uint32_t> ranks;   ///< discrete mode: position in cell order by body slot
-    std::vector<std::uint64_t> cell_keys; ///< discrete mode: cell key by body slot, from the wall pass
-    std::vector<std::uint32_t> cell_x;  ///< discrete mode, with threads: and the cell's x-coordinate
-    std::vector<std::uint32_t> mark;    ///< discrete mode: the pass that last listed a sphere
-    std::uint32_t stamp = 0;            ///< discrete mode: the last pass's stamp, from step to step
-    /// Discrete mode: a contact sphere as the velocity passes see it.
-    struct moving_sphere
-    {
-        vec3 v;              ///< m/s
-        double inverse_mass; ///< 1/kg
-    };
-    std::vector<moving_sphere> moving;          ///< discrete mode: the contacts' spheres, as listed
-    std::vector<vec3> moving_acceleration;      ///< discrete mode: and their free accelerations
-    std::vector<std::uint32_t> listed_at;       ///< discrete mode: where in `moving`, by cell order
-    std::vector<std::uint32_t> moved;   ///< discrete mode: the spheres walls and boxes moved
-    std::vector<body_path> paths;       ///< continuous mode: each body's path in this step
+    std::vector<body_path> paths;        ///< each body's path in this step
     std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
-    std::vector<std::uint32_t> version; ///< continuous mode: bumped when a path changes
-    std::vector<std::uint64_t> events_of; ///< continuous mode: events each body took part in
+    std::vector<std::uint32_t> version;  ///< bumped when a path changes
+    std::vector<std::uint64_t> events_of; ///< events each body took part in
 };
 
-/// Resolves the contacts of one step of length h in the given mode (not `off`). Discrete mode
-/// runs its loops over bodies and slabs through `loops` when given one; the result is the
-/// same bits with or without it.
+/// Resolves the contacts of one step of length h in the given mode (not `off`), timing its
+/// phases into `timings`. Discrete mode runs its loops over bodies and slabs through `loops`
+/// when given one; the result is the same bits with or without it.
 void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats,
-                        parallel_for* loops = nullptr);
+                        step_timings& timings, parallel_for* loops = nullptr);
 
 /// Pushes every sphere out of every wall it is inside and removes its velocity into the wall:
 /// the guarantee that no step leaves a position inside a wall.

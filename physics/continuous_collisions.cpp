@@ -6,6 +6,7 @@
 
 #include "collision_rules.hpp"
 #include "collisions.hpp"
+#include "discrete/discrete_step.hpp"
 #include "time_of_impact.hpp"
 
 #include <algorithm>
@@ -17,10 +18,6 @@
 
 namespace kugel::physics {
 
-void resolve_discrete(collision_settings const& settings, std::span<wall const> walls,
-                      std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                      double h, collision_workspace& workspace, collision_stats& stats,
-                      parallel_for* loops);
 
 namespace {
 
@@ -406,16 +403,9 @@ private:
             double const distance = d.norm();
             double const reach = r + b_.radius[j];
             if (distance <= reach * (1.0 + touching_tolerance)) {
-                vec3 const n = distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
-                double const closing = (p.v - q.v).dot(n);
-                if (closing < 0.0) {
-                    double const threshold = detail::rest_threshold(settings_, p.a - q.a, n, h_);
-                    double const e_used =
-                        -closing * settings_.restitution < threshold ? 0.0 : settings_.restitution;
-                    auto const w = collide_spheres(p.v, b_.inverse_mass[i], q.v,
-                                                   b_.inverse_mass[j], n, e_used);
-                    p.v = w.first;
-                    q.v = w.second;
+                vec3 const n = detail::contact_normal(d, distance);
+                if (detail::respond_to_sphere_contact(p.v, b_.inverse_mass[i], p.a, q.v, b_.inverse_mass[j],
+                                                      q.a, n, settings_, h_)) {
                     // a body resting on a wall that is hit moves freely again; if it is still
                     // pressed on the wall, its wall contact is found again at once
                     p.a = ws_.free_acceleration[i];
@@ -460,7 +450,8 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
         std::vector<vec3> const x0(bodies.x.begin(), bodies.x.end());
         std::vector<vec3> const v0(bodies.v.begin(), bodies.v.end());
         collision_bodies const settled{bodies.x, bodies.v, x0, v0, bodies.inverse_mass, bodies.radius};
-        resolve_discrete(settings, walls, obstacles, settled, h, workspace, stats, nullptr);
+        step_timings within_continuous; // counted as the continuous phase's
+        resolve_discrete(settings, walls, obstacles, settled, h, workspace.discrete, stats, within_continuous);
     }
 }
 

@@ -62,12 +62,6 @@ double difference_of_products(double a, double b, double c, double d)
 
 } // namespace
 
-bool spheres_overlap(vec3 const& x1, double r1, vec3 const& x2, double r2)
-{
-    double const reach = r1 + r2;
-    return (x1 - x2).squaredNorm() <= reach * reach;
-}
-
 double plane_contact_time_linear(plane const& wall, double radius, vec3 const& x_i, double t_i,
                                  vec3 const& x_next, double t_next)
 {

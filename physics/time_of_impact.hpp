@@ -7,8 +7,13 @@
 
 namespace kugel::physics {
 
-/// Lecture: two spheres meet exactly when ‖x₁ − x₂‖² <= (r₁ + r₂)². Touching counts.
-bool spheres_overlap(vec3 const& x1, double r1, vec3 const& x2, double r2);
+/// Lecture: two spheres meet exactly when ‖x₁ − x₂‖² <= (r₁ + r₂)². Touching counts. The one
+/// sphere-contact test of the engine: the discrete step's contacts, a room's spawn check.
+inline bool spheres_overlap(vec3 const& x1, double r1, vec3 const& x2, double r2)
+{
+    double const reach = r1 + r2;
+    return (x1 - x2).squaredNorm() <= reach * reach;
+}
 
 /// The lecture's time of contact with a wall by linear interpolation between two steps:
 ///   t_coll = (d + r‖n‖ − n·x_{i+1}) / (n·x_i − n·x_{i+1}) · t_i

@@ -71,23 +71,41 @@ void world::accelerations(std::span<vec3 const> x, std::span<vec3> a) const
         a[i] *= inverse_mass[i];
 }
 
-void world::integrate(double h)
+void world::drift(double h, std::span<vec3> start)
 {
-    auto x = bodies_.positions();
-    auto v = bodies_.velocities();
+    auto const x = bodies_.positions();
+    auto const v = bodies_.velocities();
+    // On the columns' doubles in a row (a vec3 is three doubles without padding), which the
+    // compiler can do two at a time; with x₀ kept on the way when asked, one pass over memory
+    // instead of two.
+    run_chunks(loops(), x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+        if (begin == end)
+            return;
+        auto const doubles = [&](std::span<vec3 const> column) {
+            return Eigen::Map<Eigen::ArrayXd const>(column[begin].data(), 3 * static_cast<Eigen::Index>(end - begin));
+        };
+        auto const writable = [&](std::span<vec3> column) {
+            return Eigen::Map<Eigen::ArrayXd>(column[begin].data(), 3 * static_cast<Eigen::Index>(end - begin));
+        };
+        if (!start.empty())
+            writable(start) = doubles(x);
+        writable(x) += h * doubles(v);
+    });
+}
+
+void world::move_freely(double h)
+{
+    phase_clock clock(timings_);
     if (forces_.empty()) {
-        // No force named, no force loop: every integrator reduces to the drift x += h·v.
-        run_chunks(loops(), x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
-            for (std::size_t i = begin; i < end; ++i)
-                x[i] += h * v[i];
-        });
-        return;
+        drift(h, {}); // no force named, no force loop: every integrator reduces to x += h·v
+    } else {
+        // Built here rather than stored, so a moved world never calls into its old address.
+        acceleration_fn const a = [this](std::span<vec3 const> at, std::span<vec3> out) {
+            accelerations(at, out);
+        };
+        advance(settings_.integrator, bodies_.positions(), bodies_.velocities(), h, a, workspace_);
     }
-    // Built here rather than stored, so a moved world never calls into its old address.
-    acceleration_fn const a = [this](std::span<vec3 const> at, std::span<vec3> out) {
-        accelerations(at, out);
-    };
-    advance(settings_.integrator, x, v, h, a, workspace_);
+    clock.lap(step_phase::free_motion);
 }
 
 namespace {
@@ -137,27 +155,15 @@ std::size_t world::escaped() const
     return count;
 }
 
-void world::keep_step_start_and_integrate(double h)
+void world::keep_start_and_move_freely(double h)
 {
     auto const x = bodies_.positions();
     auto const v = bodies_.velocities();
     step_start_x_.resize(x.size());
     if (forces_.empty()) {
-        // The drift, with x₀ kept on the way: one pass over memory instead of two, on the
-        // columns' doubles in a row (a vec3 is three doubles without padding), which the
-        // compiler can do two at a time. v₀ is v: a drift changes no velocity.
-        run_chunks(loops(), x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
-            if (begin == end)
-                return;
-            auto const doubles = [&](std::span<vec3 const> column) {
-                return Eigen::Map<Eigen::ArrayXd const>(column[begin].data(), 3 * static_cast<Eigen::Index>(end - begin));
-            };
-            auto const writable = [&](std::span<vec3> column) {
-                return Eigen::Map<Eigen::ArrayXd>(column[begin].data(), 3 * static_cast<Eigen::Index>(end - begin));
-            };
-            writable(step_start_x_) = doubles(x);
-            writable(x) += h * doubles(v);
-        });
+        phase_clock clock(timings_);
+        drift(h, step_start_x_); // v₀ is v: a drift changes no velocity
+        clock.lap(step_phase::free_motion);
         return;
     }
     step_start_v_.resize(v.size());
@@ -167,12 +173,23 @@ void world::keep_step_start_and_integrate(double h)
         std::copy(v.begin() + static_cast<std::ptrdiff_t>(begin), v.begin() + static_cast<std::ptrdiff_t>(end),
                   step_start_v_.begin() + static_cast<std::ptrdiff_t>(begin));
     });
-    integrate(h);
+    move_freely(h);
+}
+
+void world::collide(double h, bool drift_pending)
+{
+    bool const accelerated = !forces_.empty();
+    resolve_collisions(settings_.collisions, walls_, obstacles_,
+                       {bodies_.positions(), bodies_.velocities(), step_start_x_,
+                        accelerated ? std::span<vec3 const>(step_start_v_) : bodies_.velocities(),
+                        bodies_.inverse_masses(), bodies_.radii(), accelerated, drift_pending},
+                       h, collision_workspace_, collision_stats_, timings_, loops());
+    workspace_.invalidate(); // contacts may have moved bodies
 }
 
 void world::sort_bodies_by_cell()
 {
-    sphere_grid const& grid = collision_workspace_.grid;
+    sphere_grid const& grid = collision_workspace_.discrete.grid;
     std::size_t const n = bodies_.size();
     if (!grid.in_cell_order())
         return; // the grid declined the scene: its order is the slots'
@@ -239,27 +256,31 @@ void world::step(double dt)
 void world::substeps(double dt)
 {
     double const h = dt / settings_.substeps;
-    bool const colliding = settings_.collisions.mode != collision_mode::off && h > 0.0;
+    collision_mode const mode = h > 0.0 ? settings_.collisions.mode : collision_mode::off;
     for (int substep = 0; substep < settings_.substeps; ++substep) {
-        if (!colliding) {
-            integrate(h);
-            continue;
+        switch (mode) {
+        case collision_mode::off:
+            move_freely(h);               // forces where the integrator needs them, and the integrator
+            break;
+        case collision_mode::continuous:
+            keep_start_and_move_freely(h); // the same, keeping where each body's path starts
+            collide(h, false);             // every contact, in time order along those paths
+            break;
+        case collision_mode::discrete:
+            if (forces_.empty()) {
+                collide(h, true);          // a drift, made by the wall pass on its way; the overlaps
+            } else {
+                keep_start_and_move_freely(h);
+                collide(h, false);         // the overlaps at the end of free motion
+            }
+            break;
         }
-        bool const accelerated = !forces_.empty();
-        // Without forces, discrete mode drifts the bodies itself on its first pass over them.
-        bool const drift_pending = !accelerated && settings_.collisions.mode == collision_mode::discrete;
-        if (!drift_pending)
-            keep_step_start_and_integrate(h);
-        resolve_collisions(settings_.collisions, walls_, obstacles_,
-                           {bodies_.positions(), bodies_.velocities(), step_start_x_,
-                            accelerated ? std::span<vec3 const>(step_start_v_) : bodies_.velocities(),
-                            bodies_.inverse_masses(), bodies_.radii(), accelerated, drift_pending},
-                           h, collision_workspace_, collision_stats_, loops());
-        workspace_.invalidate(); // contacts may have moved bodies
     }
-    if (colliding && settings_.collisions.mode == collision_mode::discrete &&
-        bodies_.size() >= bodies_worth_sorting && steps_ % sort_interval == 0)
-        sort_bodies_by_cell();
+    if (mode == collision_mode::discrete && bodies_.size() >= bodies_worth_sorting && steps_ % sort_interval == 0) {
+        phase_clock clock(timings_);
+        sort_bodies_by_cell();             // the bodies into the grid's cell order, now and then
+        clock.lap(step_phase::reorder);
+    }
 }
 
 } // namespace kugel::physics

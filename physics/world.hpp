@@ -112,12 +112,23 @@ public:
     /// True when every force named is constant (or none is): the exact integrator is exact.
     bool forces_are_constant() const;
 
+    /// Seconds spent in each phase of the steps since the world was made.
+    step_timings const& timings() const { return timings_; }
+
 private:
-    void integrate(double h);
+    void substeps(double dt); ///< what step(dt) does but advance the clock
+    /// Free motion over h: the integrator, which evaluates the forces where its method needs
+    /// them; without forces, the drift x += h·v.
+    void move_freely(double h);
+    /// x += h·v for every body, keeping x₀ in `start` on the way unless it is empty.
+    void drift(double h, std::span<vec3> start);
+    /// x₀, v₀ (where the collision modes find each body's path to start), then free motion.
+    void keep_start_and_move_freely(double h);
+    /// The contacts of a substep of length h in the scene's mode; drift_pending: discrete
+    /// mode makes the drift itself (collision_bodies::drift_pending).
+    void collide(double h, bool drift_pending);
     /// Moves the bodies into the last collision step's cell order (bodies_worth_sorting).
     void sort_bodies_by_cell();
-    void substeps(double dt); ///< what step(dt) does but advance the clock
-    void keep_step_start_and_integrate(double h); ///< x₀, v₀ for the collisions, then integrate
 
     world_settings settings_;
     body_storage bodies_;
@@ -127,6 +138,7 @@ private:
     integrator_workspace workspace_;
     mutable collision_workspace collision_workspace_;
     collision_stats collision_stats_;
+    step_timings timings_;
     std::vector<vec3> step_start_x_, step_start_v_;
     /// x, v before a step of several substeps with forces, restored should one fail (kept
     /// from step to step, so the step allocates nothing once they have grown)

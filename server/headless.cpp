@@ -110,6 +110,12 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
     summary["time"] = world.time();
     summary["wall_ms"] = elapsed.count();
     summary["wall_ms_per_step"] = completed > 0 ? elapsed.count() / static_cast<double>(completed) : 0.0;
+    // Where the steps went, phase by phase, for the phases the scene's models used.
+    nlohmann::ordered_json phases = nlohmann::ordered_json::object();
+    for (std::size_t p = 0; p < physics::step_phase_count; ++p)
+        if (double const seconds = world.timings().seconds[p]; seconds > 0.0 && completed > 0)
+            phases[std::string(physics::step_phase_names[p])] = 1e3 * seconds / static_cast<double>(completed);
+    summary["phase_ms_per_step"] = std::move(phases);
     summary["force_evaluations"] = world.force_evaluations();
     summary["energy_initial"] = initial.total;
     summary["energy_final"] = final ? nlohmann::ordered_json(final->total) : nlohmann::ordered_json();

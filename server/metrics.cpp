@@ -196,6 +196,12 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     per_room({"kugel_step_faults_total", "counter",
               "Steps a room could not take (a singular force, a state beyond a double), each recovered from by removing the bodies at fault."},
              [&](room const& r) { return load(r.counters().step_faults); });
+    m.begin({"kugel_step_phase_seconds_total", "counter",
+             "Wall-clock time a room's steps spent in each phase (free motion, the discrete mode's passes, the continuous mode, reordering); a scene pays only for the phases its models use."});
+    for (auto const& r : rooms)
+        for (std::size_t p = 0; p < physics::step_phase_count; ++p)
+            m.sample("kugel_step_phase_seconds_total", {{"room", r->name()}, {"phase", physics::step_phase_names[p]}},
+                     static_cast<double>(load(r->counters().phase_nanoseconds[p])) * 1e-9);
     per_room({"kugel_clients", "gauge", "WebSocket clients in a room."},
              [&](room const& r) { return load(r.counters().sessions); });
     per_room({"kugel_bodies", "gauge", "Bodies in a room's world."},

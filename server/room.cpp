@@ -500,6 +500,7 @@ void room::replace_world(scene::scene s)
     protocol::welcome welcome = make_welcome(name_, s, fresh, settings_);
 
     world_ = std::move(fresh);
+    phase_seconds_seen_ = world_.timings();
     world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
     welcome_ = std::move(welcome);
     dt_ = s.dt;
@@ -599,7 +600,21 @@ void room::step_world()
     }
     if (auto const broken = world_.non_finite_bodies(); !broken.empty())
         remove_after_fault(broken, "the step left their position or velocity beyond the range of a double");
+    count_phase_times();
     ++counters_.ticks;
+}
+
+void room::count_phase_times()
+{
+    // The world's timings are totals since it was made; a world made anew (a reset) starts
+    // from zero, and its first step's share is then not counted.
+    physics::step_timings const& now = world_.timings();
+    for (std::size_t p = 0; p < physics::step_phase_count; ++p) {
+        double const added = now.seconds[p] - phase_seconds_seen_.seconds[p];
+        if (added > 0.0)
+            counters_.phase_nanoseconds[p] += static_cast<std::uint64_t>(added * 1e9);
+    }
+    phase_seconds_seen_ = now;
 }
 
 void room::remove_after_fault(std::vector<physics::body_id> const& bodies, std::string const& why)

@@ -10,6 +10,7 @@
 #include "protocol/messages.hpp"
 #include "scene/scene.hpp"
 
+#include <array>
 #include <atomic>
 #include <chrono>
 #include <cstdint>
@@ -36,6 +37,8 @@ struct room_counters
     /// Steps that failed (a singular force, a state beyond a double) and were recovered from
     /// by removing the bodies at fault (room::step_world)
     std::atomic<std::uint64_t> step_faults{0};
+    /// Nanoseconds the room's steps spent in each phase (physics/step_timings.hpp)
+    std::array<std::atomic<std::uint64_t>, physics::step_phase_count> phase_nanoseconds{};
 };
 
 /// One world and the clients watching it. Everything here runs on the room's strand: the
@@ -140,6 +143,8 @@ private:
     /// What `m` is told in its welcome: the room's, with its id, admin flag and caps.
     std::shared_ptr<std::string const> welcome_for(member const& m) const;
     void step_world();
+    /// Adds what the last step spent in each phase to counters_.phase_nanoseconds.
+    void count_phase_times();
     bool snapshot_due();
     /// The world now, as a snapshot's columns.
     protocol::snapshot copy_snapshot() const;
@@ -201,6 +206,7 @@ private:
     /// first, so that it outlives the world it is lent to.
     std::unique_ptr<physics::thread_pool> physics_threads_;
     physics::world world_;
+    physics::step_timings phase_seconds_seen_; ///< world_.timings() at the last count_phase_times()
     double dt_;                        ///< s per tick
     bool paused_ = false;              ///< an admin paused the room: ticks go on, no steps
     protocol::welcome welcome_;        ///< all but the client id

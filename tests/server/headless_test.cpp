@@ -8,6 +8,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <memory>
+#include <set>
 #include <string>
 #include <vector>
 
@@ -89,6 +90,30 @@ TEST(HeadlessCommand, GasSummaryReportsCollisionsAndNothingEscapes)
     EXPECT_GT(summary["bounds"]["radius"].get<double>(), 0.0);
 }
 
+TEST(HeadlessCommand, PhaseTimesNameOnlyThePhasesTheSceneUses)
+{
+    auto const phases = [&](std::string const& file, std::string const& more) {
+        auto const r = run_server("--scene " + scene(file.c_str()) + " --headless --steps 30" + more);
+        EXPECT_EQ(r.exit_code, 0) << r.out;
+        std::set<std::string> names;
+        nlohmann::json const summary = nlohmann::json::parse(r.out);
+        for (auto const& [name, ms] : summary.at("phase_ms_per_step").items()) {
+            EXPECT_GT(ms.get<double>(), 0.0) << file << " " << name;
+            names.insert(name);
+        }
+        return names;
+    };
+    using names = std::set<std::string>;
+    EXPECT_EQ(phases("kepler.json", ""), names{"free_motion"}); // no collisions
+    EXPECT_EQ(phases("pile.json", ""), (names{"free_motion", "walls", "cells", "velocity_passes",
+                                              "position_passes", "write_back"}));
+    // A gas without forces in discrete mode drifts in its wall pass: no free-motion phase.
+    EXPECT_EQ(phases("gas.json", " --set collisions.mode=discrete --set generators.0.count=1000"),
+              (names{"walls", "cells", "velocity_passes", "position_passes", "write_back"}));
+    EXPECT_EQ(phases("gas.json", " --set generators.0.count=1000"), (names{"free_motion", "continuous"}));
+    EXPECT_TRUE(phases("obstacles.json", " --set collisions.mode=discrete").contains("obstacles"));
+}
+
 TEST(HeadlessCommand, BadSceneExitsNonZeroWithNoSummary)
 {
     auto const r = run_server("--scene " + scene("kepler.json") + " --headless --set integrator=rk5");
@@ -142,7 +167,7 @@ TEST(HeadlessRun, PhysicsThreadsChangeNothingButTheTime)
     EXPECT_EQ(three["physics_threads"], 3);
     EXPECT_EQ(one["bodies"], 20000);
     EXPECT_GT(one["sphere_collisions"].get<std::uint64_t>(), 0u);
-    for (char const* key : {"wall_ms", "wall_ms_per_step", "physics_threads"}) {
+    for (char const* key : {"wall_ms", "wall_ms_per_step", "phase_ms_per_step", "physics_threads"}) {
         one.erase(key);
         three.erase(key);
     }

@@ -38,7 +38,9 @@ struct http_case
 /// a folder with a secret, under a fresh temporary folder.
 struct web_tree
 {
-    fs::path base = fs::path(testing::TempDir()) / "kugel_hostile_http";
+    // One tree per test: the suite's tests run at the same time, each in its own process.
+    fs::path base = fs::path(testing::TempDir()) /
+                    ("kugel_hostile_http_" + std::string(testing::UnitTest::GetInstance()->current_test_info()->name()));
     fs::path root = base / "root";
     fs::path outside = base / "outside";
 

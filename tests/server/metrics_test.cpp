@@ -304,5 +304,29 @@ TEST(Readiness, ReadyzIs200OnceEveryRoomTicksAndHealthzStays)
     EXPECT_EQ(json::parse(health.body).at("status"), "ok");
 }
 
+TEST(Metrics, StepPhasesAreTimedAndOnlyThoseTheSceneUsesGrow)
+{
+    // The pile: discrete collisions under gravity, so free motion and every discrete phase
+    // run on every tick, and the continuous mode never does.
+    server_options o;
+    o.rooms.push_back({"pile", fs::path(KUGEL_SOURCE_DIR) / "scenes" / "pile.json"});
+    test_support::in_process_server s(o);
+    room const& r = *s.get().find_room("pile");
+    while (r.counters().ticks.load() < 20)
+        std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    auto const samples = scrape(s.port());
+    auto const phase = [&](std::string const& name) {
+        auto const found = samples.find(R"(kugel_step_phase_seconds_total{room="pile",phase=")" + name + R"("})");
+        EXPECT_NE(found, samples.end()) << name;
+        return found == samples.end() ? -1.0 : found->second;
+    };
+    for (char const* used : {"free_motion", "walls", "cells", "velocity_passes", "position_passes",
+                             "write_back"})
+        EXPECT_GT(phase(used), 0.0) << used;
+    EXPECT_EQ(phase("obstacles"), 0.0) << "the pile has no boxes";
+    EXPECT_EQ(phase("continuous"), 0.0);
+    EXPECT_EQ(phase("reorder"), 0.0) << "500 spheres are too few to be worth reordering";
+}
+
 } // namespace
 } // namespace kugel::server

@@ -1,8 +1,14 @@
 #pragma once
 
-#include "parallel_for.hpp"
-#include "sse2.hpp"
-#include "vec.hpp"
+#include "physics/cells.hpp"
+#include "physics/parallel_for.hpp"
+#include "physics/vec.hpp"
+
+namespace kugel::physics::discrete {
+/// Which version of a kernel to run: the fast one (always, outside tests) or its plain
+/// reference (discrete/kernels.hpp).
+enum class kernel { fast, plain };
+} // namespace kugel::physics::discrete
 
 #include <algorithm>
 #include <array>
@@ -66,13 +72,6 @@ struct sphere_extent
     }
 };
 
-/// floor(q) for |q| < 2^53, without a library call.
-inline std::int64_t floor_to_integer(double q)
-{
-    auto const truncated = static_cast<std::int64_t>(q);
-    return q < static_cast<double>(truncated) ? truncated - 1 : truncated;
-}
-
 /// How a sphere_grid numbers its cells: the key of the cell a centre is in. Two builds with
 /// equal frames give every centre the same key.
 struct cell_frame
@@ -94,15 +93,8 @@ struct cell_frame
     {
         auto const cell = [&](Eigen::Index axis) {
             double const q = x[axis] * per_metre;
-#if defined(KUGEL_SSE2) && defined(__x86_64__)
-            // The processor's conversion gives -2^63 for what has no 64-bit integer, where a
-            // cast would be undefined.
-            auto const truncated = static_cast<std::uint64_t>(_mm_cvttsd_si64(_mm_set_sd(q)));
-#else
-            double const bounded = std::max(std::min(q, 0x1p62), -0x1p62); // NaN stays NaN
-            auto const truncated = static_cast<std::uint64_t>(
-                static_cast<std::int64_t>(bounded == bounded ? bounded : 0.0));
-#endif
+            // -2^63 for what has no 64-bit integer, where a cast would be undefined
+            auto const truncated = static_cast<std::uint64_t>(cells::truncate(q));
             // floor(q), then the origin's offset, with unsigned (wrapping) arithmetic
             std::uint64_t const below = q < static_cast<double>(static_cast<std::int64_t>(truncated)) ? 1 : 0;
             return truncated - below - static_cast<std::uint64_t>(origin[static_cast<std::size_t>(axis)]);
@@ -201,9 +193,43 @@ public:
     /// (the broadphases' rule, at the positions given to build()), as positions in cell order,
     /// a < b, sorted by a, then b; `touching` gets those of them whose spheres touch
     /// (|x_a − x_b| <= r_a + r_b), in the same order.
-    void near_pairs(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
+    /// `with` chooses the box test: the fast kernel, or its plain reference (for the tests
+    /// that compare the two, discrete/kernels.hpp).
+    void near_pairs(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching,
+                    discrete::kernel with = discrete::kernel::fast) const;
 
 private:
+    /// What a build decided before filing a sphere: the frame, the slabs, the table.
+    struct layout
+    {
+        cell_frame frame;
+        std::array<std::int64_t, 3> size{}; ///< cells per axis, padding included
+        std::uint64_t cells = 0;            ///< keys in use: the table's length
+        std::uint64_t slab_width = 0;       ///< x-cells per slab
+        std::uint32_t slabs = 0;
+    };
+    /// Steps 2 and 3 of build(): the cell size, the frame and the slabs, or nothing when the
+    /// grid cannot hold the scene.
+    std::optional<layout> lay_out(sphere_extent const& all);
+    /// Sorts every sphere at once, on one thread, by a counting sort over every cell.
+    void sort_all_at_once(std::span<vec3 const> x, std::span<double const> radius,
+                          std::span<double const> inverse_mass, sphere_extent const& all,
+                          layout const& grid, std::uint64_t const* given_keys, slab_ready const& ready);
+    /// Sorts the spheres into their slabs (in slot order within each), then each slab by cell.
+    void sort_slab_by_slab(std::span<vec3 const> x, std::span<double const> radius,
+                           std::span<double const> inverse_mass, sphere_extent const& all, layout const& grid,
+                           cell_keys const* given, parallel_for* loops, slab_ready const& ready);
+    /// Counts each chunk's spheres per slab and notes each sphere's key and slab.
+    std::uint64_t const* count_by_slab(std::span<vec3 const> x, std::span<double const> radius,
+                                       layout const& grid, cell_keys const* given, parallel_for* loops);
+    /// Sorts slab s (its entries in by_slab_) by cell, then slot, into cell order.
+    void sort_slab(std::size_t s, std::span<vec3 const> x, std::span<double const> radius,
+                   std::span<double const> inverse_mass);
+
+    void near_pairs_sparse(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
+    template <class box>
+    void near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
+
     /// A sphere and its cell, on its way into cell order.
     struct filed_sphere
     {
@@ -221,8 +247,6 @@ private:
     /// A function (rank, filed_sphere) that puts the sphere at that position of cell order,
     /// into the tables as resize_filed() left them.
     auto filer();
-
-    void near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching) const;
 
     bool in_cell_order_ = false;
     std::optional<cell_frame> keying_frame_;

@@ -1,0 +1,78 @@
+#pragma once
+
+// The discrete step's one workspace: everything its phases read and write besides the bodies,
+// kept from step to step so that a step in a steady state allocates nothing.
+
+#include "physics/aabb.hpp"
+#include "physics/broadphase.hpp"
+#include "physics/discrete/sphere_grid.hpp"
+#include "physics/vec.hpp"
+
+#include <cstdint>
+#include <vector>
+
+namespace kugel::physics {
+
+/// The sphere pairs of one slab of the sphere grid and what the passes changed. Spheres are
+/// named by their position in the grid's cell order.
+struct contact_slab
+{
+    std::vector<sphere_pair> near;      ///< boxes overlap, in resolution order
+    std::vector<sphere_pair> contacts;  ///< the near pairs that touch, in the same order
+    std::vector<vec3> normals;          ///< each contact's unit normal, from b to a
+    std::vector<std::uint32_t> copied;  ///< the spheres of its contacts that this slab lists
+    std::uint32_t first_copied = 0;     ///< where its copies start in the workspace's `moving`
+    std::vector<sphere_pair> moving_pairs; ///< its contacts, as positions in `moving`
+    std::vector<std::uint32_t> touched; ///< the spheres a pass changed that this slab lists
+    std::vector<std::uint32_t> pushed;  ///< the spheres its position passes moved (once per pass)
+    std::uint64_t responses = 0;        ///< sphere–sphere responses
+    bool changed = false;               ///< the last velocity pass changed a velocity
+};
+
+/// What the wall pass did to one chunk of bodies.
+struct wall_chunk
+{
+    std::vector<std::uint32_t> moved; ///< the spheres that bounced
+    std::uint64_t responses = 0;      ///< sphere–wall responses
+    bool accelerated = false;         ///< some body's free motion changed its velocity
+    sphere_extent extent;             ///< of the bodies where the pass left them
+};
+
+struct discrete_workspace
+{
+    // The wall pass and the obstacles
+    std::vector<wall_chunk> wall_chunks;  ///< one per chunk of bodies
+    std::vector<vec3> free_acceleration;  ///< each body's acceleration from free motion alone
+    std::vector<std::uint64_t> cell_keys; ///< cell key by body slot, from the wall pass
+    std::vector<std::uint32_t> cell_x;    ///< with threads: and the cell's x-coordinate
+    std::vector<std::uint32_t> moved;     ///< the spheres walls and boxes moved
+
+    // Cells and near pairs
+    sphere_grid grid;                   ///< the spheres in cell order
+    std::vector<contact_slab> slabs;    ///< one per slab of the grid
+    /// With a broadphase other than the grid: its boxes, their bodies and its pairs, and each
+    /// body's position in cell order.
+    struct other_broadphase
+    {
+        broadphase_workspace broadphase;
+        std::vector<aabb> boxes;
+        std::vector<std::uint32_t> members; ///< body slot of each box
+        std::vector<box_pair> pairs;
+        std::vector<std::uint32_t> ranks;   ///< position in cell order by body slot
+    } other;
+
+    // The velocity and position passes
+    std::vector<std::uint32_t> mark;    ///< the pass that last listed a sphere
+    std::uint32_t stamp = 0;            ///< the last pass's stamp, from step to step
+    /// A contact sphere as the velocity passes see it.
+    struct moving_sphere
+    {
+        vec3 v;              ///< m/s
+        double inverse_mass; ///< 1/kg
+    };
+    std::vector<moving_sphere> moving;     ///< the contacts' spheres, as listed
+    std::vector<vec3> moving_acceleration; ///< and their free accelerations
+    std::vector<std::uint32_t> listed_at;  ///< where in `moving`, by cell order
+};
+
+} // namespace kugel::physics

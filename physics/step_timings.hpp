@@ -1,0 +1,58 @@
+#pragma once
+
+// Where a world's steps spend their time, phase by phase: what the headless summary and a
+// room's /metrics report, so that a slow scene shows which of its models it pays for.
+
+#include <array>
+#include <chrono>
+#include <cstddef>
+#include <string_view>
+
+namespace kugel::physics {
+
+enum class step_phase : std::size_t {
+    free_motion,     ///< forces where the integrator needs them, and the integrator
+    walls,           ///< discrete: each body on its own against the walls (and a drift)
+    obstacles,       ///< discrete: spheres against boxes
+    cells,           ///< discrete: spheres sorted into cells, and their near pairs
+    velocity_passes, ///< discrete: momentum exchanged at contacts
+    position_passes, ///< discrete: overlapping pairs pushed apart
+    write_back,      ///< discrete: positions back to the bodies, the last wall clamp
+    continuous,      ///< continuous: every event of the step in time order
+    reorder,         ///< bodies moved into cell order (a large discrete world)
+};
+inline constexpr std::size_t step_phase_count = 9;
+inline constexpr std::array<std::string_view, step_phase_count> step_phase_names{
+    "free_motion", "walls",      "obstacles",  "cells", "velocity_passes",
+    "position_passes", "write_back", "continuous", "reorder"};
+
+/// Seconds spent in each phase since the world was made (wall-clock, on the calling thread:
+/// a phase on two threads counts once).
+struct step_timings
+{
+    std::array<double, step_phase_count> seconds{};
+
+    double operator[](step_phase p) const { return seconds[static_cast<std::size_t>(p)]; }
+};
+
+/// Times consecutive phases: lap(p) adds the time since the last lap (or since it was made)
+/// to phase p. One clock read per phase.
+class phase_clock
+{
+public:
+    explicit phase_clock(step_timings& into) : into_(into), last_(clock::now()) {}
+
+    void lap(step_phase p)
+    {
+        auto const now = clock::now();
+        into_.seconds[static_cast<std::size_t>(p)] += std::chrono::duration<double>(now - last_).count();
+        last_ = now;
+    }
+
+private:
+    using clock = std::chrono::steady_clock;
+    step_timings& into_;
+    clock::time_point last_;
+};
+
+} // namespace kugel::physics
