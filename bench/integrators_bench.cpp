@@ -45,6 +45,20 @@ void all_integrators(benchmark::internal::Benchmark* b)
 
 BENCHMARK(integrator_step)->Apply(all_integrators)->Unit(benchmark::kMicrosecond);
 
+/// One step of a two-body orbit, the smallest world with a force: what a step costs beside
+/// its physics, with the phase timings off (timed:0, the default) and on (timed:1, as in a
+/// room or a headless run).
+void two_body_step(benchmark::State& state)
+{
+    world w = gravity_world(integrator_kind::velocity_verlet, 2);
+    w.time_phases(state.range(0) != 0);
+    w.step(1e-4);
+    for (auto _ : state)
+        w.step(1e-4);
+}
+
+BENCHMARK(two_body_step)->ArgName("timed")->Arg(0)->Arg(1);
+
 void drift_without_forces(benchmark::State& state)
 {
     world w;

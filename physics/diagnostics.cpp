@@ -2,6 +2,8 @@
 
 #include "world.hpp"
 
+#include <algorithm>
+
 namespace kugel::physics {
 
 diagnostics measure_motion(world const& w)
@@ -19,6 +21,7 @@ diagnostics measure_motion(world const& w)
         if (inverse_mass[i] == 0.0)
             continue; // static: at rest by definition
         d.kinetic += 0.5 * m[i] * v[i].squaredNorm();
+        d.largest_speed = std::max(d.largest_speed, v[i].norm());
         d.momentum += m[i] * v[i];
         d.angular_momentum += m[i] * x[i].cross(v[i]);
     }

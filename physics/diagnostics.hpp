@@ -18,6 +18,7 @@ struct diagnostics
     vec3 angular_momentum = vec3::Zero(); ///< kg·m²/s, Σ m·x × v about the origin
     vec3 centre_of_mass = vec3::Zero();   ///< m, mass-weighted mean position (origin if no mass)
     double mass = 0.0;                    ///< kg, total
+    double largest_speed = 0.0;           ///< m/s, the fastest dynamic body's
     std::size_t bodies = 0;
 };
 

@@ -27,23 +27,27 @@ inline constexpr std::array<std::string_view, step_phase_count> step_phase_names
     "position_passes", "write_back", "continuous", "reorder"};
 
 /// Seconds spent in each phase since the world was made (wall-clock, on the calling thread:
-/// a phase on two threads counts once).
+/// a phase on two threads counts once), while `on`. Off by default: a phase's clock reads
+/// cost more than a whole step of a two-body orbit (bench/README.md, decisions).
 struct step_timings
 {
     std::array<double, step_phase_count> seconds{};
+    bool on = false;
 
     double operator[](step_phase p) const { return seconds[static_cast<std::size_t>(p)]; }
 };
 
 /// Times consecutive phases: lap(p) adds the time since the last lap (or since it was made)
-/// to phase p. One clock read per phase.
+/// to phase p. One clock read per phase; none while the timings are off.
 class phase_clock
 {
 public:
-    explicit phase_clock(step_timings& into) : into_(into), last_(clock::now()) {}
+    explicit phase_clock(step_timings& into) : into_(into), last_(into.on ? clock::now() : clock::time_point{}) {}
 
     void lap(step_phase p)
     {
+        if (!into_.on)
+            return;
         auto const now = clock::now();
         into_.seconds[static_cast<std::size_t>(p)] += std::chrono::duration<double>(now - last_).count();
         last_ = now;

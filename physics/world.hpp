@@ -49,9 +49,8 @@ public:
         share_from_ = from_bodies;
     }
 
-    /// Where a lent parallel_for starts to pay: a discrete gas step on two cores (bench
-    /// gas_step_threads) took 5x as long with two threads at 1,000 spheres, as long at 10,000,
-    /// and 0.7x at 100,000.
+    /// Where a lent parallel_for starts to pay: below it, the hand-overs of a step's loops
+    /// cost more than the second thread saves (bench/README.md, decisions).
     static constexpr std::size_t bodies_worth_sharing = 16 * 1024;
 
     /// Static geometry that spheres collide with (when collisions are on). Throws
@@ -70,13 +69,10 @@ public:
     /// collision grid's cell order (sphere_grid.hpp), sorting them again on every
     /// sort_interval-th step (the first included): the discrete step then reads and writes the
     /// bodies nearly in sequence, where slots in no order sent it to memory for nearly every
-    /// sphere. A mixed gas of 10^6 spheres (bench gas_step_mixed) stepped 8 % faster so on
-    /// one thread and 6 % on two, sorting included (a sort there takes about 18 ms). At 10^5
-    /// the bodies outgrow a core's own cache, and the step was 7 % faster with its spheres
-    /// added row by row and 12 % with them shuffled (a sort there takes about 2 ms).
+    /// sphere. From about this many the bodies outgrow a core's own cache (bench/README.md,
+    /// decisions).
     static constexpr std::size_t bodies_worth_sorting = 64 * 1024;
-    /// Every 16th or every 32nd step measured the same at 10^6; the order decays slowly, as
-    /// spheres move a fraction of a cell per step.
+    /// The order decays slowly, as spheres move a fraction of a cell per step.
     static constexpr std::uint64_t sort_interval = 16;
 
     /// The accelerations of all bodies at positions x (what the integrator calls).
@@ -112,8 +108,11 @@ public:
     /// True when every force named is constant (or none is): the exact integrator is exact.
     bool forces_are_constant() const;
 
-    /// Seconds spent in each phase of the steps since the world was made.
+    /// Seconds spent in each phase of the steps since the world was made, while timed.
     step_timings const& timings() const { return timings_; }
+    /// Turns the timing of each phase on (what a room and a headless run report) or off (the
+    /// default: a step then reads no clock).
+    void time_phases(bool on) { timings_.on = on; }
 
 private:
     void substeps(double dt); ///< what step(dt) does but advance the clock

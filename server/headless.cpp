@@ -64,6 +64,7 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
         pool = std::make_unique<physics::thread_pool>(physics_threads);
     physics::world world = scene::build_world(s);
     world.set_parallel_for(pool.get());
+    world.time_phases(true); // for phase_ms_per_step
     auto const initial = physics::measure(world);
     auto const& integrator = physics::info(s.integrator);
 
@@ -122,6 +123,7 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
     summary["energy_rel_drift"] =
         final ? nlohmann::ordered_json(relative_drift(initial, *final)) : nlohmann::ordered_json();
     summary["kinetic_final"] = motion.kinetic;
+    summary["largest_speed_final"] = motion.largest_speed;
     summary["potential_final"] = final ? nlohmann::ordered_json(final->potential) : nlohmann::ordered_json();
     summary["momentum_initial"] = to_json(initial.momentum);
     summary["momentum_final"] = to_json(motion.momentum);

@@ -99,6 +99,7 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
       dt_(scene_.dt), send_charges_(scene_.forces.coulomb.has_value())
 {
     world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
+    world_.time_phases(true); // for /metrics
     welcome_ = make_welcome(name_, scene_, world_, settings_);
     auto const ids = world_.bodies().ids();
     for (std::size_t slot = 0; slot < ids.size(); ++slot) {
@@ -500,6 +501,7 @@ void room::replace_world(scene::scene s)
     protocol::welcome welcome = make_welcome(name_, s, fresh, settings_);
 
     world_ = std::move(fresh);
+    world_.time_phases(true);
     phase_seconds_seen_ = world_.timings();
     world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
     welcome_ = std::move(welcome);

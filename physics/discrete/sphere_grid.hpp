@@ -52,8 +52,7 @@ struct sphere_extent
     vec3 highest = vec3::Constant(-std::numeric_limits<double>::infinity());
 
     /// Counts a body (a sphere when r > 0) at x. Called for every body of a step by loops
-    /// that do little else, where GCC would not inline it by itself (a call per body was a
-    /// third of the discrete wall pass's instructions).
+    /// that do little else, where GCC would not inline it by itself.
     [[gnu::always_inline]] void add(vec3 const& x, double r)
     {
         if (!(r > 0.0))
@@ -256,8 +255,8 @@ private:
     /// are searched for in the sorted keys (a sparse scene).
     bool dense_ = false;
     // The filed spheres in cell order, in four tables: the pair passes read the spheres
-    // alone, 32 bytes each, where one table of all took 56 (at 10^6 spheres the step waits on
-    // memory, and reads the spheres several times).
+    // alone, 32 bytes each, two to a cache line (at 10^6 spheres the step waits on memory,
+    // and reads the spheres several times).
     std::vector<packed_sphere> spheres_;       ///< in cell order
     std::vector<double> inverse_masses_;       ///< in cell order
     std::vector<std::uint32_t> slots_;         ///< body slot, in cell order

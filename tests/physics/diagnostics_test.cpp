@@ -26,6 +26,7 @@ TEST(Diagnostics, MeasuresAHandMadeWorld)
     EXPECT_DOUBLE_EQ(d.mass, 8.0);
     EXPECT_LE((d.centre_of_mass - vec3(20.0, 2.0, 3.0) / 8.0).norm(), 1e-15);
     EXPECT_EQ(d.bodies, 3U);
+    EXPECT_EQ(d.largest_speed, 3.0); // the second body's; the static one has none
 }
 
 TEST(Diagnostics, EmptyWorldIsAllZero)

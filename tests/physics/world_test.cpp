@@ -210,5 +210,24 @@ TEST(World, SameSceneGivesTheSameBits)
     EXPECT_EQ(first, 0x2a43a1d1f951f7c2ULL) << std::hex << "hash is 0x" << first;
 }
 
+// The phase timings are off until asked for, and then time only the phases a step runs: a
+// projectile without collisions has free motion and nothing else.
+TEST(World, TimesItsPhasesOnlyWhenAsked)
+{
+    world w;
+    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
+    w.add_body({vec3::Zero(), vec3(1, 0, 1), 1.0, 0.0, 0.0, false});
+    for (int i = 0; i < 100; ++i)
+        w.step(0.01);
+    for (double seconds : w.timings().seconds)
+        EXPECT_EQ(seconds, 0.0);
+    w.time_phases(true);
+    for (int i = 0; i < 100; ++i)
+        w.step(0.01);
+    EXPECT_GT(w.timings()[step_phase::free_motion], 0.0);
+    for (std::size_t p = 1; p < step_phase_count; ++p)
+        EXPECT_EQ(w.timings().seconds[p], 0.0) << step_phase_names[p];
+}
+
 } // namespace
 } // namespace kugel::physics
