@@ -57,7 +57,9 @@ inline vec3 contact_normal(vec3 const& d, double distance)
 /// The two-sphere response both modes give a contact with unit normal n (from b to a): if the
 /// spheres close along n, the lecture's collision of two spheres with the scene's restitution
 /// e, or e = 0 when the outgoing normal speed e·|closing| would be below the rest threshold of
-/// their relative acceleration a_a − a_b. Returns false when they do not close.
+/// their relative acceleration a_a − a_b. Then the scene's friction takes the share μ of their
+/// relative tangential speed (the lecture's wall rule between two spheres, momentum kept).
+/// Returns false when they do not close.
 inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3 const& a_a, vec3& v_b,
                                       double inverse_mass_b, vec3 const& a_b, vec3 const& n,
                                       collision_settings const& settings, double h)
@@ -70,6 +72,14 @@ inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3 con
     auto const w = collide_spheres(v_a, inverse_mass_a, v_b, inverse_mass_b, n, e);
     v_a = w.first;
     v_b = w.second;
+    double const total = inverse_mass_a + inverse_mass_b;
+    if (settings.friction > 0.0 && total > 0.0) {
+        vec3 const relative = v_a - v_b;
+        vec3 const tangential = relative - relative.dot(n) * n;
+        vec3 const impulse = (settings.friction / total) * tangential; // kg·m/s
+        v_a -= inverse_mass_a * impulse;
+        v_b += inverse_mass_b * impulse;
+    }
     return true;
 }
 

@@ -49,6 +49,9 @@ struct collision_settings
     collision_mode mode = collision_mode::off;
     broadphase_kind broadphase = broadphase_kind::uniform_grid;
     double restitution = 1.0; ///< e in [0, 1] for sphere–sphere contacts; 1 is elastic
+    /// μ in [0, 1] for sphere–sphere contacts: the share of their relative tangential speed a
+    /// contact takes, the lecture's wall rule w_t = (1 − μ)·v_t between two spheres (0: none).
+    double friction = 0.0;
     /// m/s: a contact whose outgoing normal speed is below this comes to rest (speed 0) instead
     /// of bouncing again. Unset: twice the normal speed the body's own acceleration adds in
     /// one step (2·|Δv·n|), which is zero without forces, so a gas stays exactly elastic.

@@ -361,7 +361,7 @@ obstacle_settings read_obstacle(json const& value, location const& at)
 physics::collision_settings read_collisions(json const& value, location const& at)
 {
     object(value, at,
-           {"mode", "broadphase", "restitution", "rest_speed", "velocity_iterations",
+           {"mode", "broadphase", "restitution", "friction", "rest_speed", "velocity_iterations",
             "position_iterations", "max_events_per_step", "max_events_per_body"});
     physics::collision_settings c;
     c.mode = physics::collision_mode::discrete; // naming collisions turns them on
@@ -381,6 +381,7 @@ physics::collision_settings read_collisions(json const& value, location const& a
         c.broadphase = *kind;
     }
     c.restitution = optional_field(value, "restitution", at, c.restitution, unit_interval);
+    c.friction = optional_field(value, "friction", at, c.friction, unit_interval);
     if (auto const* rest = find(value, "rest_speed"))
         c.rest_speed = number_at_least(*rest, at / "rest_speed", 0.0, false);
     c.velocity_iterations = static_cast<int>(optional_field(

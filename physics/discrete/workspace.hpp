@@ -73,6 +73,15 @@ struct discrete_workspace
     std::vector<moving_sphere> moving;     ///< the contacts' spheres, as listed
     std::vector<vec3> moving_acceleration; ///< and their free accelerations
     std::vector<std::uint32_t> listed_at;  ///< where in `moving`, by cell order
+    /// A contact in the order support is passed up a pile: its depth along gravity.
+    struct support_entry
+    {
+        double depth;
+        std::uint32_t slab;
+        std::uint32_t contact;
+    };
+    std::vector<support_entry> support_order;
+    std::vector<std::uint8_t> supported; ///< by position in `moving`: carried by a wall
 };
 
 } // namespace kugel::physics

@@ -1,4 +1,5 @@
 #include "physics/collision_response.hpp"
+#include "physics/collision_rules.hpp"
 
 #include <gtest/gtest.h>
 
@@ -128,6 +129,33 @@ TEST(CollideSpheres, SeparatingPairsAreLeftAlone)
     auto const r = collide_spheres(vec3(1, 0, 0), 1.0, vec3(-1, 0, 0), 1.0, vec3(1, 0, 0), 1.0);
     EXPECT_EQ(r.first, vec3(1, 0, 0));
     EXPECT_EQ(r.second, vec3(-1, 0, 0));
+}
+
+// ---- the two-sphere response both collision modes use -----------------------------------
+
+// Friction between spheres is the walls' rule between two bodies: a contact takes the share μ
+// of the relative tangential speed, and like every impulse between the two it keeps their
+// momentum. Two spheres (masses 1 and 3) meet head-on along x while sliding past each other
+// along y at 2 m/s: after an elastic contact with μ = 0.25 they slide at 1.5 m/s, the normal
+// exchange is the plain elastic one, and the momentum is the same to rounding (1e-15 of it).
+TEST(SphereContact, FrictionTakesItsShareOfTheTangentialSpeedAndKeepsMomentum)
+{
+    collision_settings settings;
+    settings.restitution = 1.0;
+    settings.friction = 0.25;
+    vec3 const n(1, 0, 0); // from b to a
+    vec3 v_a(-1, 1, 0), v_b(1, -1, 0);
+    double const m_a = 1.0, m_b = 3.0;
+    vec3 const p0 = m_a * v_a + m_b * v_b;
+    vec3 const still = vec3::Zero();
+    ASSERT_TRUE(detail::respond_to_sphere_contact(v_a, 1 / m_a, still, v_b, 1 / m_b, still, n, settings, 1.0 / 60));
+    EXPECT_NEAR((v_a - v_b).y(), 0.75 * 2.0, 1e-15);
+    EXPECT_NEAR((v_a - v_b).x(), 2.0, 1e-15); // elastic: the closing 2 m/s comes back
+    EXPECT_LE((m_a * v_a + m_b * v_b - p0).norm(), 1e-15 * 4.0);
+    settings.friction = 0.0; // none: the tangential motion is untouched
+    vec3 w_a(-1, 1, 0), w_b(1, -1, 0);
+    detail::respond_to_sphere_contact(w_a, 1 / m_a, still, w_b, 1 / m_b, still, n, settings, 1.0 / 60);
+    EXPECT_EQ((w_a - w_b).y(), 2.0);
 }
 
 } // namespace

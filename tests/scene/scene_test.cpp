@@ -160,6 +160,8 @@ INSTANTIATE_TEST_SUITE_P(
                  "/collisions/broadphase: unknown broadphase 'octree'"},
         bad_case{"restitution_above_one", R"({"dt": 0.1, "collisions": {"restitution": 1.5}})",
                  "/collisions/restitution: must be between 0 and 1, got 1.5"},
+        bad_case{"friction_below_zero", R"({"dt": 0.1, "collisions": {"friction": -0.25}})",
+                 "/collisions/friction: must be between 0 and 1, got -0.25"},
         bad_case{"damping_below_zero",
                  R"({"dt": 0.1, "walls": [{"normal": [0,0,1], "offset": 0, "damping": -0.1}]})",
                  "/walls/0/damping: must be between 0 and 1"},
@@ -391,7 +393,7 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     scene const s = parse_scene(R"({
       "dt": 0.01,
       "collisions": {"mode": "continuous", "broadphase": "sweep_and_prune", "restitution": 0.5,
-                     "rest_speed": 0.02, "max_events_per_step": 99, "max_events_per_body": 7},
+                     "friction": 0.75, "rest_speed": 0.02, "max_events_per_step": 99, "max_events_per_body": 7},
       "box": {"min": [-1, -2, 0], "max": [1, 2, 3], "damping": 0.25, "friction": 0.5},
       "walls": [{"normal": [0, 0, 2], "offset": 4, "damping": 0.1}],
       "obstacles": [
@@ -403,6 +405,7 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     EXPECT_EQ(w.settings().collisions.mode, physics::collision_mode::continuous);
     EXPECT_EQ(w.settings().collisions.broadphase, physics::broadphase_kind::sweep_and_prune);
     EXPECT_EQ(w.settings().collisions.restitution, 0.5);
+    EXPECT_EQ(w.settings().collisions.friction, 0.75);
     EXPECT_EQ(w.settings().collisions.rest_speed, 0.02);
     EXPECT_EQ(w.settings().collisions.max_events_per_step, 99U);
     EXPECT_EQ(w.settings().collisions.max_events_per_body, 7U);

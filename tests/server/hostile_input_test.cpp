@@ -11,6 +11,7 @@
 
 #include "protocol/message_schemas.hpp"
 #include "support/in_process_server.hpp"
+#include "support/scene_files.hpp"
 #include "support/ws_client.hpp"
 
 #include <gtest/gtest.h>
@@ -346,8 +347,8 @@ json lab_scene()
 
 server_options lab_options()
 {
-    fs::path const file = fs::path(testing::TempDir()) / "kugel_hostile_input_lab.json";
-    std::ofstream(file) << lab_scene().dump(2);
+    fs::path const file =
+        test_support::write_scene(fs::path(testing::TempDir()) / "kugel_hostile_input_lab.json", lab_scene());
     server_options o;
     o.rooms.push_back({"lab", file});
     o.client.max_message_bytes = frame_limit;

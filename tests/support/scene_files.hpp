@@ -8,6 +8,8 @@
 #include <fstream>
 #include <string>
 
+#include <unistd.h>
+
 namespace kugel::test_support {
 
 /// Nothing moves unless pushed: no forces, no collisions, walls at ±10 m. One body of
@@ -35,10 +37,15 @@ inline nlohmann::json drop_scene()
                                               {{"position", {1, 0, 3}}, {"radius", 0.2}, {"mass", 1}}})}};
 }
 
-/// Writes `scene` to `file` (indented JSON) and returns the path.
+/// Writes `scene` to `file` (indented JSON) and returns the path. The tests run at the same
+/// time, each in a process of its own, and several write the same file: so it is written
+/// beside and renamed into place, and a reader sees the whole file or the one before, never
+/// a half-written one.
 inline std::filesystem::path write_scene(std::filesystem::path const& file, nlohmann::json const& scene)
 {
-    std::ofstream(file) << scene.dump(2);
+    std::filesystem::path const part = file.string() + "." + std::to_string(::getpid()) + ".part";
+    std::ofstream(part) << scene.dump(2);
+    std::filesystem::rename(part, file);
     return file;
 }
 
