@@ -5,6 +5,7 @@
 #include "connection.hpp"
 #include "load.hpp"
 #include "protocol/codec.hpp"
+#include "protocol/messages.hpp"
 #include "script.hpp"
 #include "script_runner.hpp"
 #include "url.hpp"
@@ -114,7 +115,9 @@ int main(int argc, char** argv)
     CLI::App app{"kugel-client: watch a Kugel room, run a scripted test against it, or put it "
                  "under load.\nURLs are ws://HOST:PORT/ws/ROOM (kugel-server prints its port). "
                  "See client/README.md."};
-    app.require_subcommand(1);
+    app.require_subcommand(0, 1); // none is refused below, after unknown arguments are named
+    app.set_version_flag("--version", std::string("kugel-client ") + KUGEL_VERSION + " (protocol " +
+                                          std::to_string(kugel::protocol::protocol_version) + ")");
 
     CLI::App* watch_command = app.add_subcommand(
         "watch", "Print one line per snapshot: tick, time, bodies, and the kinetic energy when the "
@@ -190,7 +193,17 @@ int main(int argc, char** argv)
         ->capture_default_str();
     load_command->add_flag("--json", load_json, "Print the report as JSON");
 
-    CLI11_PARSE(app, argc, argv);
+    try {
+        app.parse(argc, argv);
+    } catch (CLI::ParseError const& e) {
+        // --help and --version exit 0; every mistake in the command line exits 2, the code of
+        // bad input (client/README.md, exit codes), not the parser's own numbers.
+        return app.exit(e) == 0 ? 0 : 2;
+    }
+    if (!*watch_command && !*run_command && !*load_command) {
+        std::cerr << "kugel-client: name a command: watch, run or load (kugel-client --help)\n";
+        return 2;
+    }
 
     try {
         if (*watch_command)

@@ -6,6 +6,7 @@
 #include "checkpoint.hpp"
 #include "headless.hpp"
 #include "scene/scene.hpp"
+#include "protocol/messages.hpp"
 #include "server.hpp"
 
 #include <CLI/CLI.hpp>
@@ -214,7 +215,15 @@ int main(int argc, char** argv)
     app.add_flag("--discard-bad-state", options.discard_bad_state,
                  "With --state: move an unusable checkpoint aside (ROOM.json.bad-TIME) and start\n"
                  "that room from its scene instead of refusing to start");
-    CLI11_PARSE(app, argc, argv);
+    app.set_version_flag("--version", std::string("kugel-server ") + KUGEL_VERSION + " (protocol " +
+                                          std::to_string(kugel::protocol::protocol_version) + ")");
+    try {
+        app.parse(argc, argv);
+    } catch (CLI::ParseError const& e) {
+        // --help and --version exit 0; every mistake in the command line exits 2, the code of
+        // bad input (README, exit codes), not the parser's own numbers.
+        return app.exit(e) == 0 ? 0 : 2;
+    }
     spdlog::set_level(spdlog::level::from_str(log_level));
 
     if (!headless) {

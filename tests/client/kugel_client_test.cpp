@@ -190,7 +190,35 @@ TEST(KugelClient, EveryCommandHasHelp)
         EXPECT_NE(help.output.find("Usage"), std::string::npos) << help.output;
     }
     finished const none = run_client({}, "help_none");
-    EXPECT_NE(none.status, 0);
+    EXPECT_EQ(none.status, 2);
+    EXPECT_NE(none.output.find("watch, run or load"), std::string::npos) << none.output;
+}
+
+// The same exit codes as kugel-server's (client/README.md): 0 for --version, 2 for every
+// mistake in the command line, named.
+TEST(KugelClient, VersionExitsZeroAndEveryBadCommandLineExitsTwoNamingIt)
+{
+    finished const version = run_client({"--version"}, "version");
+    EXPECT_EQ(version.status, 0);
+    EXPECT_EQ(version.output.rfind("kugel-client ", 0), 0U) << version.output;
+    EXPECT_NE(version.output.find("(protocol 1)"), std::string::npos) << version.output;
+    struct bad
+    {
+        std::vector<std::string> arguments;
+        std::string named;
+    };
+    std::vector<bad> const cases{
+        {{"--bogus"}, "--bogus"},
+        {{"watch", "--bogus", "ws://127.0.0.1:1/ws"}, "--bogus"},
+        {{"run", "/nonexistent/script.json", "--url", "ws://127.0.0.1:1/ws"}, "/nonexistent/script.json"},
+        {{"load", "--clients", "-3", "--url", "ws://127.0.0.1:1/ws"}, "--clients"},
+    };
+    int k = 0;
+    for (bad const& c : cases) {
+        finished const r = run_client(c.arguments, "bad_" + std::to_string(k++));
+        EXPECT_EQ(r.status, 2) << c.arguments.front() << "\n" << r.output;
+        EXPECT_NE(r.output.find(c.named), std::string::npos) << r.output;
+    }
 }
 
 } // namespace

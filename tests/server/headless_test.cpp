@@ -23,10 +23,12 @@ struct process_result
     std::string out;
 };
 
-/// Runs kugel-server with arguments, capturing stdout (stderr, the log, is discarded).
-process_result run_server(std::string const& arguments)
+/// Runs kugel-server with arguments, capturing stdout (stderr, the log, is discarded unless
+/// asked for: then it comes after stdout's lines, mixed in).
+process_result run_server(std::string const& arguments, bool with_stderr = false)
 {
-    std::string const command = std::string(KUGEL_SERVER_EXE) + " " + arguments + " 2>/dev/null";
+    std::string const command =
+        std::string(KUGEL_SERVER_EXE) + " " + arguments + (with_stderr ? " 2>&1" : " 2>/dev/null");
     std::unique_ptr<FILE, int (*)(FILE*)> pipe(popen(command.c_str(), "r"), pclose);
     std::string out;
     std::array<char, 4096> buffer{};
@@ -112,6 +114,37 @@ TEST(HeadlessCommand, PhaseTimesNameOnlyThePhasesTheSceneUses)
               (names{"walls", "cells", "velocity_passes", "position_passes", "write_back"}));
     EXPECT_EQ(phases("gas.json", " --set generators.0.count=1000"), (names{"free_motion", "continuous"}));
     EXPECT_TRUE(phases("obstacles.json", " --set collisions.mode=discrete").contains("obstacles"));
+}
+
+// One table of exit codes (README, "Exit codes"): 0 for --help and --version, 2 for every
+// mistake in the command line, whatever the argument parser would have said, and the message
+// names what was wrong.
+TEST(ServerCommand, HelpAndVersionExitZeroAndEveryBadCommandLineExitsTwoNamingIt)
+{
+    auto const version = run_server("--version");
+    EXPECT_EQ(version.exit_code, 0);
+    EXPECT_EQ(version.out.rfind("kugel-server ", 0), 0U) << version.out;
+    EXPECT_NE(version.out.find("(protocol 1)"), std::string::npos) << version.out;
+    EXPECT_EQ(run_server("--help").exit_code, 0);
+    struct bad
+    {
+        std::string arguments;
+        std::string named; ///< what the message must name
+    };
+    std::vector<bad> const cases{
+        {"--bogus", "--bogus"},
+        {"--port 99999", "--port"},
+        {"--port seven", "--port"},
+        {"--headless --scene " + scene("kepler.json") + " --steps -5", "--steps"},
+        {"--headless --scene /nonexistent/scene.json", "/nonexistent/scene.json"},
+        {"--room x=/nonexistent/scene.json", "/nonexistent/scene.json"},
+        {"--scene " + scene("kepler.json"), "--headless"},
+    };
+    for (bad const& c : cases) {
+        auto const r = run_server(c.arguments, true);
+        EXPECT_EQ(r.exit_code, 2) << c.arguments << "\n" << r.out;
+        EXPECT_NE(r.out.find(c.named), std::string::npos) << c.arguments << "\n" << r.out;
+    }
 }
 
 TEST(HeadlessCommand, BadSceneExitsNonZeroWithNoSummary)
