@@ -135,8 +135,12 @@ void http_session::on_read(beast::error_code ec, std::size_t)
         auto target_room = room_name ? routes_->find_room(*room_name) : nullptr;
         if (!target_room) {
             spdlog::info("refused a WebSocket upgrade to {}: no such room", request.target());
+            std::string rooms;
+            for (std::string const& name : routes_->room_names)
+                rooms += (rooms.empty() ? "" : ", ") + ("/ws/" + name);
             return send(text_response(request, http::status::not_found,
-                                      "no room at " + std::string(request.target()) + "\n"));
+                                      "no room at " + printable(request.target()) + "; the rooms are " + rooms +
+                                          (routes_->find_room("default") ? " (and /ws for default)" : "") + "\n"));
         }
         stream_.expires_never(); // the WebSocket session keeps its own timeouts
         routes_->upgrade(stream_.release_socket(), std::move(target_room), std::move(request));

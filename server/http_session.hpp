@@ -32,6 +32,7 @@ struct http_routes
     /// Upgrades refused for their Origin, for rate-limiting the log.
     mutable std::atomic<std::uint64_t> origin_refusals{0};
     std::function<std::shared_ptr<room>(std::string_view name)> find_room;
+    std::vector<std::string> room_names; ///< every room, for the answer to an upgrade to no room
     std::function<void(tcp::socket&&, std::shared_ptr<room>, http::request<http::string_body>)>
         upgrade; ///< hands the socket to a new websocket_session
     std::function<std::string()> health;  ///< the body of /healthz (JSON): alive

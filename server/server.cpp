@@ -176,6 +176,8 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
     for (std::string const& host : options.allowed_hosts)
         routes->allowed_hosts.push_back(normalized_host(host)); // throws for a bad one
     state* const s = state_.get();
+    for (auto const& [name, r] : s->rooms)
+        routes->room_names.push_back(name);
     routes->find_room = [s](std::string_view name) -> std::shared_ptr<room> {
         auto const it = s->rooms.find(name);
         return it == s->rooms.end() ? nullptr : it->second;

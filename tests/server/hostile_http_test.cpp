@@ -197,9 +197,10 @@ TEST(HostileHttp, AllowedHostsAreAnsweredAndStarAnswersEveryHost)
 }
 
 /// An upgrade request with this key, Host and Origin (none when empty).
-std::string upgrade(std::string const& key, std::string const& host, std::string const& origin = {})
+std::string upgrade(std::string const& key, std::string const& host, std::string const& origin = {},
+                    std::string const& target = "/ws/still")
 {
-    std::string request = "GET /ws/still HTTP/1.1\r\nHost: " + host +
+    std::string request = "GET " + target + " HTTP/1.1\r\nHost: " + host +
                           "\r\nUpgrade: websocket\r\nConnection: Upgrade\r\nSec-WebSocket-Version: 13\r\n";
     if (key != "(none)")
         request += "Sec-WebSocket-Key: " + key + "\r\n";
@@ -233,6 +234,22 @@ TEST(HostileHttp, ARebindingPageCannotOpenAWebSocket)
     EXPECT_EQ(rebound.status, 403U);
     EXPECT_NE(rebound.body.find("--allow-host"), std::string::npos) << rebound.body;
     EXPECT_EQ(http_raw(s.port(), upgrade(key, "localhost:" + port, "http://localhost:" + port)).status, 101U);
+}
+
+// An upgrade to a room that does not exist is told which rooms do: a server with one room
+// named "still" and no default answers /ws and /ws/nosuch with 404 naming /ws/still.
+TEST(HostileHttp, AnUpgradeToNoRoomIsToldTheRooms)
+{
+    web_tree const tree;
+    test_support::in_process_server s(options_for(tree));
+    std::string const host = "127.0.0.1:" + std::to_string(s.port());
+    std::string const key = "dGhlIHNhbXBsZSBub25jZQ==";
+    for (std::string const target : {"/ws", "/ws/nosuch"}) {
+        auto const reply = http_raw(s.port(), upgrade(key, host, {}, target));
+        EXPECT_EQ(reply.status, 404U) << target;
+        EXPECT_NE(reply.body.find("the rooms are /ws/still"), std::string::npos) << reply.body;
+        EXPECT_EQ(reply.body.find("/ws for default"), std::string::npos) << reply.body;
+    }
 }
 
 } // namespace
