@@ -133,7 +133,9 @@ int main(int argc, char** argv)
         ->capture_default_str();
     app.add_option("--port", options.port, "Port to listen on (0: any free port)")
         ->capture_default_str();
-    app.add_option("--tick-rate", options.tick_rate, "World steps per second (Hz)")
+    app.add_option("--tick-rate", options.tick_rate,
+                   "World steps per second of wall time (Hz). Each step advances the scene's dt, so\n"
+                   "a rate other than 1/dt runs the world faster or slower than real time (the log says so)")
         ->check(CLI::Range(0.001, 10000.0))
         ->capture_default_str();
     app.add_option("--snapshot-rate", options.snapshot_rate,

@@ -160,6 +160,12 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
                                                            s, config, fingerprint,
                                                            std::move(restored)));
         spdlog::info("room '{}': scene '{}', {} bodies, dt {} s", name, s.name, s.body_count(), s.dt);
+        // Each tick advances the scene's dt: a tick rate other than 1/dt runs the world faster
+        // or slower than the wall clock, which the user should hear about once.
+        if (double const speed = options.tick_rate * s.dt; std::abs(speed - 1.0) > 1e-9)
+            spdlog::warn("room '{}': {} ticks/s of dt {} s run the world at {:.3g} times real time "
+                         "(for real time, give --tick-rate {:.6g} or set the scene's dt to {:.6g} s)",
+                         name, options.tick_rate, s.dt, speed, 1.0 / s.dt, 1.0 / options.tick_rate);
     };
     if (options.rooms.empty())
         add_room("default", scene::parse_scene(default_scene_text(), "built-in arena scene"),
