@@ -1,6 +1,7 @@
 // What the pointer does. A click (press and release without moving) on the floor, a wall or
-// an obstacle spawns a sphere resting on it; a drag that starts on a sphere pushes that
-// sphere, with an arrow showing the push while dragging; any other drag orbits the camera.
+// an obstacle spawns a sphere resting on it, also when a sphere passes under the pointer at
+// that moment; a drag that starts on a sphere pushes that sphere, with an arrow showing the
+// push while dragging; any other drag orbits the camera.
 import * as THREE from 'three';
 import { dot, unit_wall } from './wall_geometry.js';
 
@@ -36,7 +37,7 @@ export class PointerInput {
     this.on_impulse = on_impulse;
     this.label = label; // an element that shows the push next to the pointer
     this.press = null; // {x, y, pointer} of a press that may become a click
-    this.drag = null; // {id, pointer, x, y} while pushing a sphere
+    this.drag = null; // {id, pointer, x, y, from_x, from_y} while pushing a sphere
     this.arrow = new THREE.ArrowHelper(new THREE.Vector3(1, 0, 0), new THREE.Vector3(), 1, arrow_colour);
     for (const part of [this.arrow.line, this.arrow.cone]) {
       part.material.depthTest = false; // drawn over the spheres it starts in
@@ -62,7 +63,10 @@ export class PointerInput {
     }
     this.view.controls.enabled = false;
     this.view.canvas.setPointerCapture(event.pointerId);
-    this.drag = { id: this.view.frame.id[index], pointer: event.pointerId, x: event.clientX, y: event.clientY };
+    this.drag = {
+      id: this.view.frame.id[index], pointer: event.pointerId,
+      x: event.clientX, y: event.clientY, from_x: event.clientX, from_y: event.clientY,
+    };
     this.update_arrow();
   }
 
@@ -76,15 +80,25 @@ export class PointerInput {
 
   on_up(event) {
     if (this.drag && event.pointerId === this.drag.pointer) {
+      const moved = Math.hypot(event.clientX - this.drag.from_x, event.clientY - this.drag.from_y);
       const push = this.push();
       this.cancel();
-      if (push && push.delta_v.length() > 1e-6) {
+      if (moved <= click_slop) {
+        // Pressed and released in place: a click, meant for the surface (a sphere that
+        // moved under the pointer must not be pushed by it).
+        this.click(event);
+      } else if (push && push.delta_v.length() > 1e-6) {
         this.on_impulse(push.id, push.delta_v.clone().multiplyScalar(push.mass).toArray(), push.delta_v.toArray());
       }
       return;
     }
     if (!this.press || event.pointerId !== this.press.pointer) return;
     this.press = null;
+    this.click(event);
+  }
+
+  /** A click: a sphere resting on the surface under the pointer, if there is one. */
+  click(event) {
     const hit = this.view.surface_at(event.clientX, event.clientY);
     if (!hit) return;
     const { radius, density } = this.settings();

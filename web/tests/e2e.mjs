@@ -261,12 +261,31 @@ test('a drag from a sphere pushes it: its velocity changes in the next snapshots
   await screenshot('pushed');
 });
 
+test('a press and release on a sphere without moving is a click, not a push', async () => {
+  const target = await pickable_body();
+  const impulses_before = (await state()).acks.filter((a) => a.command === 'impulse').length;
+  const spawn_answers = async () => {
+    const s = await state();
+    return s.acks.filter((a) => a.command === 'spawn').length + s.errors.filter((e) => e.command === 'spawn').length;
+  };
+  const spawns_before = await spawn_answers();
+  await page.mouse.click(target.x, target.y);
+  // The click is meant for the surface behind the sphere: a spawn is answered (an ack, or an
+  // error if the sphere there is in the way), and no impulse is sent.
+  await wait_for('an answer to the spawn the click made', (kugel, n) =>
+    kugel.state.acks.filter((a) => a.command === 'spawn').length + kugel.state.errors.filter((e) => e.command === 'spawn').length > n,
+  spawns_before);
+  const impulses_after = (await state()).acks.filter((a) => a.command === 'impulse').length;
+  assert.equal(impulses_after, impulses_before, 'a click in place sent an impulse');
+});
+
 test('a refused command shows a readable message on the page', async () => {
   // A sphere wider than the box cannot be put anywhere in it.
   await page.locator('#spawn-radius').fill('4');
   const floor = await page.evaluate(() => window.kugel.screen_of(-2, 2, 0));
+  const earlier = (await state()).errors.length; // an earlier test's click may have been refused
   await page.mouse.click(floor.x, floor.y);
-  const error = await wait_for('an error answering the spawn', (kugel) => kugel.state.errors.find((e) => e.command === 'spawn'));
+  const error = await wait_for('an error answering the spawn', (kugel, n) => kugel.state.errors.slice(n).find((e) => e.command === 'spawn'), earlier);
   assert.equal(error.code, 'overlaps_wall');
   const message = page.locator('#messages .message').last();
   await message.waitFor({ state: 'visible', timeout: wait_seconds * 1000 });
