@@ -111,6 +111,16 @@ export class Hud {
     }
   }
 
+  /** Shows a line of text among the messages for a while (no error code). */
+  show_notice(text) {
+    const element = this.document.createElement('div');
+    element.className = 'message';
+    element.textContent = text;
+    this.messages.append(element);
+    while (this.messages.children.length > max_messages) this.messages.firstElementChild.remove();
+    setTimeout(() => element.remove(), 2 * message_seconds * 1000);
+  }
+
   /** Shows a readable error for a while. */
   show_error(error, command) {
     const { headline, code, detail } = describe_error(error, command);

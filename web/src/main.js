@@ -230,7 +230,13 @@ window.kugel = {
 async function start() {
   state.rooms = await list_rooms();
   const requested = new URLSearchParams(window.location.search).get('room');
-  connect(choose_room(state.rooms, requested));
+  const chosen = choose_room(state.rooms, requested);
+  if (requested && chosen !== requested) {
+    // ?room= named a room the server does not have: say so, and which rooms it has (the
+    // picker lists them too), instead of opening another one without a word.
+    hud.show_notice(`There is no room "${requested}" here; the rooms are ${state.rooms.join(', ')}. Showing "${chosen}".`);
+  }
+  connect(chosen);
   setInterval(update_hud, 250);
   requestAnimationFrame(animate);
 }

@@ -224,6 +224,14 @@ test('the room picker switches rooms', async () => {
   assert.match(page.url(), /\?room=resting$/);
 });
 
+test('a room that does not exist is named on the page, with the rooms there are', async () => {
+  await page.goto(`http://127.0.0.1:${server.port}/?room=nosuch`);
+  const message = page.locator('#messages .message', { hasText: 'nosuch' });
+  await message.waitFor({ state: 'visible', timeout: wait_seconds * 1000 });
+  assert.match(await message.textContent(), /There is no room "nosuch" here; the rooms are arena, resting\. Showing "arena"\./);
+  await wait_for('the page to open room "arena" instead', (kugel) => kugel.state.room === 'arena' && kugel.state.connection === 'connected');
+});
+
 test('a click on the floor spawns a sphere there, and the server confirms it', async () => {
   await open_room('resting');
   const before_count = (await state()).bodies;
