@@ -18,7 +18,9 @@
 #include <optional>
 #include <string_view>
 #include <thread>
+#include <set>
 #include <unordered_map>
+#include <vector>
 
 namespace kugel::client {
 
@@ -220,6 +222,8 @@ public:
     void take(protocol::ack ack, clock::time_point now)
     {
         ++stats_.acks;
+        if (spawn_refs_.erase(ack.ref) > 0 && ack.id)
+            spawned_.push_back(*ack.id);
         auto const sent = answered(ack.ref);
         if (sent)
             stats_.ack_latency.record(std::chrono::duration<double>(now - *sent).count());
@@ -409,6 +413,8 @@ public:
             ref = next_ref_++;
             pending_.emplace(ref, clock::now());
             ++stats_.commands_sent;
+            if (std::holds_alternative<protocol::spawn>(c))
+                spawn_refs_.insert(ref);
         }
         auto bytes = std::make_shared<std::string const>(std::visit(
             [ref](auto m) {
@@ -435,6 +441,18 @@ public:
                   [self = shared_from_this(), bytes = std::move(bytes)]() mutable {
                       self->queue_write(std::move(bytes));
                   });
+    }
+
+    std::vector<std::uint64_t> spawned() const
+    {
+        std::lock_guard lock(mutex_);
+        return spawned_;
+    }
+
+    void forget_spawned(std::uint64_t id)
+    {
+        std::lock_guard lock(mutex_);
+        std::erase(spawned_, id);
     }
 
     std::optional<reply> await_reply(std::uint64_t ref, std::chrono::milliseconds timeout)
@@ -590,6 +608,8 @@ private:
     std::size_t unsent_ = 0;
     std::unordered_map<std::uint64_t, clock::time_point> pending_; ///< refs sent, unanswered
     std::map<std::uint64_t, reply> replies_;                       ///< answers to our refs
+    std::set<std::uint64_t> spawn_refs_; ///< refs of spawns not yet acknowledged
+    std::vector<std::uint64_t> spawned_; ///< ids of the bodies our spawns made, in ack order
     std::deque<reply> unmatched_;
     std::deque<std::shared_ptr<protocol::snapshot const>> snapshots_;
     std::shared_ptr<protocol::snapshot const> latest_;
@@ -668,6 +688,31 @@ void connection::send_text(std::string text)
 std::optional<reply> connection::await_reply(std::uint64_t ref, std::chrono::milliseconds timeout)
 {
     return state_->live->await_reply(ref, timeout);
+}
+
+std::vector<std::uint64_t> connection::spawned() const
+{
+    return state_->live->spawned();
+}
+
+std::size_t connection::remove_spawned(std::chrono::milliseconds timeout)
+{
+    auto& live = *state_->live;
+    std::vector<std::pair<std::uint64_t, std::uint64_t>> sent; // id, ref
+    for (std::uint64_t const id : live.spawned())
+        sent.emplace_back(id, live.send(protocol::remove{.ref = 0, .id = id}));
+    auto const until = std::chrono::steady_clock::now() + timeout;
+    std::size_t removed = 0;
+    for (auto const& [id, ref] : sent) {
+        auto const left = std::chrono::duration_cast<std::chrono::milliseconds>(until - std::chrono::steady_clock::now());
+        auto const answer = live.await_reply(ref, std::max(left, std::chrono::milliseconds(0)));
+        if (!answer)
+            continue; // no answer in time: it may still be there, and stays on the list
+        if (std::holds_alternative<protocol::ack>(*answer))
+            ++removed;
+        live.forget_spawned(id); // removed now, or gone before (unknown_body)
+    }
+    return removed;
 }
 
 std::optional<reply> connection::next_unmatched_reply(std::chrono::milliseconds timeout)

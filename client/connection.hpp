@@ -17,6 +17,7 @@
 #include <stdexcept>
 #include <string>
 #include <variant>
+#include <vector>
 
 namespace kugel::client {
 
@@ -161,6 +162,13 @@ public:
     /// The answer to `ref`, once it arrives; nullopt when none comes within `timeout` or the
     /// connection ends first. Each answer is handed out once.
     std::optional<reply> await_reply(std::uint64_t ref, std::chrono::milliseconds timeout);
+    /// The ids of the bodies this connection's spawns made (from their acks), in that order,
+    /// less those remove_spawned() has seen gone.
+    std::vector<std::uint64_t> spawned() const;
+    /// Removes every body of spawned(): a `remove` for each, and waits up to `timeout` in all
+    /// for the answers. Returns how many it removed; a body removed before (by this
+    /// connection, an admin or a reset) is answered unknown_body and dropped from the list.
+    std::size_t remove_spawned(std::chrono::milliseconds timeout);
     /// The oldest answer that matches no ref this connection sent (for send_text), waiting up
     /// to `timeout` for one.
     std::optional<reply> next_unmatched_reply(std::chrono::milliseconds timeout);

@@ -76,7 +76,7 @@ int watch(std::string const& url, bool as_json, std::uint64_t count, double time
     return 0;
 }
 
-int run(std::string const& file, std::string const& url, double timeout, bool quiet)
+int run(std::string const& file, std::string const& url, double timeout, bool quiet, bool cleanup)
 {
     parse_websocket_url(url); // a bad URL is a usage error (2), not a failed step
     script s;
@@ -89,6 +89,7 @@ int run(std::string const& file, std::string const& url, double timeout, bool qu
     run_options options;
     options.url = url;
     options.timeout = to_ms(timeout);
+    options.cleanup = cleanup;
     std::ostringstream discarded;
     run_result const result = run_script(s, options, quiet ? discarded : std::cout);
     if (quiet && !result.passed)
@@ -144,6 +145,7 @@ int main(int argc, char** argv)
     std::string run_url;
     double run_timeout = 10.0;
     bool quiet = false;
+    bool cleanup = false;
     run_command->add_option("SCRIPT", script_file, "The script (JSON), see client/README.md")
         ->required()
         ->check(CLI::ExistingFile);
@@ -156,6 +158,9 @@ int main(int argc, char** argv)
         ->check(CLI::Range(0.1, 600.0))
         ->capture_default_str();
     run_command->add_flag("--quiet", quiet, "Print only a failure");
+    run_command->add_flag("--cleanup", cleanup,
+                          "At the end, passed or failed, each client removes the bodies it spawned "
+                          "(as the script's \"cleanup\": true)");
 
     CLI::App* load_command = app.add_subcommand(
         "load", "Open N connections to one room for S seconds, optionally sending commands (spawn, "
@@ -209,7 +214,7 @@ int main(int argc, char** argv)
         if (*watch_command)
             return watch(watch_url, watch_json, watch_count, watch_timeout);
         if (*run_command)
-            return run(script_file, run_url, run_timeout, quiet);
+            return run(script_file, run_url, run_timeout, quiet, cleanup);
         return load(load_opts, load_json);
     } catch (url_error const& e) {
         std::cerr << e.what() << '\n';

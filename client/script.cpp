@@ -275,8 +275,13 @@ script parse_script(std::string_view text)
     }
     place const at{"script", ""};
     object_at(document, at);
-    only_keys(document, {"description", "server", "variables", "steps"}, at);
+    only_keys(document, {"description", "server", "variables", "steps", "cleanup"}, at);
     script result;
+    if (document.contains("cleanup")) {
+        if (!document["cleanup"].is_boolean())
+            (at / "cleanup").fail("must be true or false, got " + describe(document["cleanup"]));
+        result.cleanup = document["cleanup"].get<bool>();
+    }
     if (document.contains("description"))
         result.description = string_at(document["description"], at / "description");
     if (document.contains("server")) {

@@ -124,6 +124,9 @@ struct script
     std::vector<std::string> server;                 ///< kugel-server arguments it was written for
     std::map<std::string, nlohmann::json> variables; ///< set before the first step
     std::vector<step> steps;
+    /// At the end, passed or failed, each client removes the bodies it spawned (so that a
+    /// script run again and again against a long-lived room leaves nothing behind).
+    bool cleanup = false;
 };
 
 /// Reads a script from JSON text; throws script_error naming the step and field at fault.

@@ -89,9 +89,11 @@ public:
             log_ << failure << '\n';
             result.failed_step = s.number;
             result.failure = std::move(failure);
+            clean_up();
             close_all();
             return result;
         }
+        clean_up();
         close_all();
         log_ << "passed: " << script_.steps.size() << " steps\n";
         result.passed = true;
@@ -99,6 +101,25 @@ public:
     }
 
 private:
+    /// With cleanup, each client that is still connected removes the bodies it spawned.
+    void clean_up()
+    {
+        if (!options_.cleanup && !script_.cleanup)
+            return;
+        for (auto& [name, c] : clients_) {
+            if (!c.link || c.link->closed_with())
+                continue;
+            try {
+                std::size_t const spawned = c.link->spawned().size();
+                std::size_t const removed = c.link->remove_spawned(options_.timeout);
+                log_ << "     client " << name << " removed " << removed << " of the " << spawned
+                     << " bodies it spawned\n";
+            } catch (connection_error const& e) {
+                log_ << "     client " << name << " could not clean up: " << e.what() << '\n';
+            }
+        }
+    }
+
     /// What was sent by one send or send_text step. Answers stay with it once they have
     /// arrived, so that several expects may look at the same send.
     struct sent

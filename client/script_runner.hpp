@@ -17,6 +17,9 @@ struct run_options
     /// How long to wait for an answer, a close or a first snapshot. Waits counted in ticks
     /// get twice their ticks' worth of wall-clock time on top (see client/README.md).
     std::chrono::milliseconds timeout{10'000};
+    /// Remove what each client spawned at the end, passed or failed (also when the script
+    /// says "cleanup": true).
+    bool cleanup = false;
 };
 
 struct run_result

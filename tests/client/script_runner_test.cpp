@@ -7,6 +7,8 @@
 
 #include <filesystem>
 #include <gtest/gtest.h>
+
+#include <thread>
 #include <sstream>
 
 namespace kugel::client {
@@ -161,6 +163,47 @@ TEST(ScriptRunner, NoServerFailsTheFirstStepThatConnects)
     EXPECT_EQ(result.failed_step, 1U);
     EXPECT_NE(result.failure.find("connection: cannot connect"), std::string::npos)
         << result.failure;
+}
+
+// Cleanup: at the end, passed or failed, each client removes what it spawned, so a script run
+// again and again against a long-lived room leaves nothing behind. Two clients spawn three
+// bodies, one of them removes one itself, and the script fails at its last step: the room
+// holds what it held before, and the log says what each client removed. Without cleanup the
+// bodies stay.
+TEST(ScriptRunner, CleanupRemovesWhatEachClientSpawnedPassOrFail)
+{
+    running_server s;
+    std::string const script = R"({"cleanup": CLEANUP, "steps": [
+        {"send": {"type": "spawn", "body": {"position": [3, 0, 0], "radius": 0.5, "mass": 4}}},
+        {"expect": {"type": "ack", "keep": {"a": "id"}}},
+        {"send": {"type": "spawn", "body": {"position": [-3, 0, 0], "radius": 0.5, "mass": 4}}},
+        {"expect": {"type": "ack"}},
+        {"client": "other", "send": {"type": "spawn", "body": {"position": [0, 3, 0], "radius": 0.5, "mass": 4}}},
+        {"client": "other", "expect": {"type": "ack"}},
+        {"send": {"type": "remove", "id": "$a"}},
+        {"expect": {"type": "ack"}},
+        {"wait_ticks": 2},
+        {"expect_body": {"id": 424242, "position": [0, 0, 0], "tolerance": 0}}
+    ]})";
+    auto const with = [&](char const* cleanup) {
+        std::string text = script;
+        text.replace(text.find("CLEANUP"), 7, cleanup);
+        return text;
+    };
+    auto const before = s.bodies("still");
+    outcome const cleaned = run(s.url(), with("true"));
+    EXPECT_FALSE(cleaned.result.passed);
+    EXPECT_EQ(cleaned.result.failed_step, 10U) << cleaned.log;
+    EXPECT_NE(cleaned.log.find("client main removed 1 of the 2 bodies it spawned"), std::string::npos) << cleaned.log;
+    EXPECT_NE(cleaned.log.find("client other removed 1 of the 1 bodies it spawned"), std::string::npos) << cleaned.log;
+    for (int tick = 0; tick < 200 && s.bodies("still") != before; ++tick)
+        std::this_thread::sleep_for(10ms); // the removes take effect at the next tick
+    EXPECT_EQ(s.bodies("still"), before);
+    outcome const kept = run(s.url(), with("false"));
+    EXPECT_EQ(kept.log.find("removed"), std::string::npos) << kept.log;
+    for (int tick = 0; tick < 200 && s.bodies("still") != before + 2; ++tick)
+        std::this_thread::sleep_for(10ms);
+    EXPECT_EQ(s.bodies("still"), before + 2);
 }
 
 } // namespace

@@ -65,6 +65,8 @@ TEST(Script, RefusalsNameTheStepAndTheField)
     EXPECT_EQ(refusal("{not json").find("not valid JSON"), 0U);
     EXPECT_NE(refusal(R"({"steps": []})").find("/steps"), std::string::npos);
     EXPECT_NE(refusal(R"({"stepz": []})").find("unknown field \"stepz\""), std::string::npos);
+    EXPECT_NE(refusal(R"({"cleanup": "yes", "steps": [{"wait_ticks": 1}]})").find("/cleanup: must be true or false"),
+              std::string::npos);
     EXPECT_NE(refusal(one_step(R"({"sned": {}})")).find("step 1: no action"), std::string::npos);
     EXPECT_NE(refusal(one_step(R"({"send": {"type": "ping"}, "expect": {"type": "pong"}})"))
                   .find("more than one action"),

@@ -38,6 +38,10 @@ public:
     }
     server::server& get() { return server_; }
     /// Ticks the room has completed so far.
+    std::uint64_t bodies(std::string_view room) const
+    {
+        return server_.find_room(room)->counters().bodies.load();
+    }
     std::uint64_t ticks(std::string_view room) const
     {
         return server_.find_room(room)->counters().ticks.load();
