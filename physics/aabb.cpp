@@ -2,6 +2,19 @@
 
 namespace kugel::physics {
 
+void boxes_of_spheres(std::span<vec3 const> x, std::span<double const> radius, std::vector<aabb>& boxes,
+                      std::vector<std::uint32_t>& members)
+{
+    boxes.clear();
+    members.clear();
+    for (std::size_t i = 0; i < x.size(); ++i) {
+        if (radius[i] > 0.0) {
+            boxes.push_back(aabb_of_sphere(x[i], radius[i]));
+            members.push_back(static_cast<std::uint32_t>(i));
+        }
+    }
+}
+
 aabb aabb_of_points(std::span<vec3 const> points)
 {
     if (points.empty())

@@ -58,14 +58,7 @@ double max_overlap(std::span<wall const> walls, std::span<obstacle const> obstac
                    collision_workspace& ws)
 {
     double worst = 0.0;
-    ws.boxes.clear();
-    ws.members.clear();
-    for (std::size_t i = 0; i < x.size(); ++i) {
-        if (radius[i] > 0.0) {
-            ws.boxes.push_back(aabb_of_sphere(x[i], radius[i]));
-            ws.members.push_back(static_cast<std::uint32_t>(i));
-        }
-    }
+    boxes_of_spheres(x, radius, ws.boxes, ws.members);
     find_overlapping_pairs(broadphase_kind::uniform_grid, ws.boxes, ws.pairs, ws.broadphase);
     for (box_pair const& p : ws.pairs) {
         std::size_t const i = ws.members[p.a], j = ws.members[p.b];

@@ -16,14 +16,7 @@ namespace {
 void pairs_from_broadphase(broadphase_kind kind, collision_bodies const& b, discrete_workspace& ws)
 {
     auto& other = ws.other;
-    other.boxes.clear();
-    other.members.clear();
-    for (std::size_t i = 0; i < b.x.size(); ++i) {
-        if (b.radius[i] > 0.0) {
-            other.boxes.push_back(aabb_of_sphere(b.x[i], b.radius[i]));
-            other.members.push_back(static_cast<std::uint32_t>(i));
-        }
-    }
+    boxes_of_spheres(b.x, b.radius, other.boxes, other.members);
     find_overlapping_pairs(kind, other.boxes, other.pairs, other.broadphase);
     sphere_grid const& grid = ws.grid;
     grid.ranks(b.x.size(), other.ranks);

@@ -8,18 +8,25 @@ namespace kugel::physics::discrete {
 
 namespace {
 
-/// A sphere touching a wall (to a relative 1e-9 of its radius) and moving into it meets it
-/// (meet_wall): a stack's weight, pressing slower than the rest threshold, is carried by the
-/// wall. Returns whether its velocity changed.
+/// How far from its centre a wall counts as touching a sphere: its radius, to a relative 1e-9.
+double touching_reach(packed_sphere const& s) { return s.radius * (1.0 + 1e-9); }
+
+bool touches(wall const& w, packed_sphere const& s)
+{
+    return w.surface.normal.dot(s.x) <= w.surface.offset + touching_reach(s);
+}
+
+/// A sphere touching a wall and moving into it meets it (meet_wall): a stack's weight,
+/// pressing slower than the rest threshold, is carried by the wall. Returns whether its
+/// velocity changed.
 bool meet_touched_walls(detail::wall_set const& walls, packed_sphere const& s, vec3& v, vec3 const& a,
                         collision_settings const& settings, double h)
 {
-    double const reach = s.radius * (1.0 + 1e-9);
-    if (walls.beyond(s.x, reach))
+    if (walls.beyond(s.x, touching_reach(s)))
         return false;
     bool changed = false;
     for (wall const& w : walls.all)
-        if (w.surface.normal.dot(s.x) <= w.surface.offset + reach)
+        if (touches(w, s))
             changed |= detail::meet_wall(w, v, a, settings, h);
     return changed;
 }
@@ -64,7 +71,7 @@ void copy_contact_spheres(step_context const& step, free_accelerations free_a, d
             if (free_a.any())
                 ws.moving_acceleration[c] = free_a[i];
             packed_sphere const& s = grid.sphere(k);
-            if (!step.walls.beyond(s.x, s.radius * (1.0 + 1e-9)))
+            if (!step.walls.beyond(s.x, touching_reach(s)))
                 slab.touched.push_back(k);
         }
     });
@@ -100,10 +107,8 @@ void propagate_support(step_context const& step, discrete_workspace& ws)
         for (std::uint32_t k : slab.touched) {
             packed_sphere const& s = grid.sphere(k);
             std::uint32_t const c = ws.listed_at[k];
-            double const reach = s.radius * (1.0 + 1e-9);
             for (wall const& w : step.walls.all)
-                if (w.surface.normal.dot(s.x) <= w.surface.offset + reach &&
-                    w.surface.normal.dot(ws.moving_acceleration[c]) < 0.0)
+                if (touches(w, s) && w.surface.normal.dot(ws.moving_acceleration[c]) < 0.0)
                     supported[c] = 1;
         }
     }
