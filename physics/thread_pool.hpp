@@ -17,8 +17,9 @@ namespace kugel::physics {
 /// calling thread as one of the `threads`, so thread_pool(1) starts no thread at all.
 /// One run() at a time; not itself shared between worlds stepping at once.
 ///
-/// A step makes some thirty run() calls, and waking a sleeping thread through a condition
-/// variable costs more than a whole step of 10^4 spheres (bench/README.md, decisions), so a
+/// A step makes some thirty run() calls, and thirty wake-ups of a sleeping thread through a
+/// condition variable cost more than a whole step of 10^4 spheres (bench/README.md,
+/// decisions), so a
 /// thread that waits, for a job or for the others to finish one, first spins for a while
 /// (spin_wait) and sleeps only after.
 class thread_pool final : public parallel_for
