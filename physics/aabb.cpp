@@ -3,13 +3,13 @@
 namespace kugel::physics {
 
 void boxes_of_spheres(std::span<vec3 const> x, std::span<double const> radius, std::vector<aabb>& boxes,
-                      std::vector<std::uint32_t>& members)
+                      std::vector<std::uint32_t>& members, double margin)
 {
     boxes.clear();
     members.clear();
     for (std::size_t i = 0; i < x.size(); ++i) {
         if (radius[i] > 0.0) {
-            boxes.push_back(aabb_of_sphere(x[i], radius[i]));
+            boxes.push_back(aabb_of_sphere(x[i], radius[i] + margin));
             members.push_back(static_cast<std::uint32_t>(i));
         }
     }

@@ -27,10 +27,11 @@ inline aabb aabb_of_sphere(vec3 const& centre, double radius)
     return {centre - r, centre + r};
 }
 
-/// Replaces `boxes` by the box of every sphere (radius > 0) at x, and `members` by each box's
-/// body slot: what a broadphase is given for a world's spheres.
+/// Replaces `boxes` by the box of every sphere (radius > 0) at x, grown by `margin` on every
+/// side, and `members` by each box's body slot: what a broadphase is given for a world's
+/// spheres.
 void boxes_of_spheres(std::span<vec3 const> x, std::span<double const> radius, std::vector<aabb>& boxes,
-                      std::vector<std::uint32_t>& members);
+                      std::vector<std::uint32_t>& members, double margin = 0.0);
 
 /// The smallest box holding every point; an empty span gives the empty box at the origin.
 aabb aabb_of_points(std::span<vec3 const> points);

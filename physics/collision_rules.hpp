@@ -7,6 +7,7 @@
 #include "collisions.hpp"
 #include "wall_set.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 namespace kugel::physics::detail {
@@ -54,11 +55,35 @@ inline vec3 contact_normal(vec3 const& d, double distance)
     return distance > 0.0 ? vec3(d / distance) : vec3(vec3::UnitZ());
 }
 
+/// Coulomb friction between two spheres at a contact with unit normal n that has just changed
+/// their relative normal speed by `normal_change` (m/s, >= 0): their relative tangential
+/// speed loses at most μ times that, and all of it when it is smaller (the contact sticks).
+/// Spheres here do not spin, so both impulses act through the same reduced mass and the cone
+/// |J_t| <= μ·J_n is the same bound on the speeds. Momentum is kept. Unlike the walls' rule
+/// (a share of the sliding speed at every touch), a sphere resting in a hollow or on a slope
+/// shallower than atan μ stays where it is: a pile can stand.
+inline void apply_sphere_friction(vec3& v_a, double inverse_mass_a, vec3& v_b, double inverse_mass_b,
+                                  vec3 const& n, double friction, double normal_change)
+{
+    double const total = inverse_mass_a + inverse_mass_b;
+    if (!(friction > 0.0 && total > 0.0 && normal_change > 0.0))
+        return;
+    vec3 const relative = v_a - v_b;
+    vec3 const tangential = relative - relative.dot(n) * n;
+    double const sliding = tangential.norm();
+    if (!(sliding > 0.0))
+        return;
+    double const removed = std::min(sliding, friction * normal_change); // m/s
+    vec3 const impulse = (removed / (sliding * total)) * tangential; // kg·m/s
+    v_a -= inverse_mass_a * impulse;
+    v_b += inverse_mass_b * impulse;
+}
+
 /// The two-sphere response both modes give a contact with unit normal n (from b to a): if the
 /// spheres close along n, the lecture's collision of two spheres with the scene's restitution
 /// e, or e = 0 when the outgoing normal speed e·|closing| would be below the rest threshold of
-/// their relative acceleration a_a − a_b. Then the scene's friction takes the share μ of their
-/// relative tangential speed (the lecture's wall rule between two spheres, momentum kept).
+/// their relative acceleration a_a − a_b. Then the scene's friction acts by Coulomb's law
+/// (apply_sphere_friction).
 /// Returns false when they do not close.
 inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3 const& a_a, vec3& v_b,
                                       double inverse_mass_b, vec3 const& a_b, vec3 const& n,
@@ -72,14 +97,26 @@ inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3 con
     auto const w = collide_spheres(v_a, inverse_mass_a, v_b, inverse_mass_b, n, e);
     v_a = w.first;
     v_b = w.second;
+    apply_sphere_friction(v_a, inverse_mass_a, v_b, inverse_mass_b, n, settings.friction, -(1.0 + e) * closing);
+    return true;
+}
+
+/// A speculative contact (the discrete step's, discrete/velocity_passes.cpp): spheres apart
+/// that may still approach at `allowed` (m/s, >= 0) and end the step touching. Closing faster,
+/// they lose the excess along n in proportion to their inverse masses (momentum kept, no
+/// bounce: they have not met), and the scene's friction acts as at a contact, as they will
+/// touch. Returns false when they do not close faster than allowed.
+inline bool respond_to_speculative_contact(vec3& v_a, double inverse_mass_a, vec3& v_b, double inverse_mass_b,
+                                           vec3 const& n, double allowed, collision_settings const& settings)
+{
+    double const closing = (v_a - v_b).dot(n);
     double const total = inverse_mass_a + inverse_mass_b;
-    if (settings.friction > 0.0 && total > 0.0) {
-        vec3 const relative = v_a - v_b;
-        vec3 const tangential = relative - relative.dot(n) * n;
-        vec3 const impulse = (settings.friction / total) * tangential; // kg·m/s
-        v_a -= inverse_mass_a * impulse;
-        v_b += inverse_mass_b * impulse;
-    }
+    if (!(closing < -allowed) || total == 0.0)
+        return false;
+    double const excess = -allowed - closing; // m/s, > 0
+    v_a += (excess * inverse_mass_a / total) * n;
+    v_b -= (excess * inverse_mass_b / total) * n;
+    apply_sphere_friction(v_a, inverse_mass_a, v_b, inverse_mass_b, n, settings.friction, excess);
     return true;
 }
 

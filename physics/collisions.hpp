@@ -49,8 +49,8 @@ struct collision_settings
     collision_mode mode = collision_mode::off;
     broadphase_kind broadphase = broadphase_kind::uniform_grid;
     double restitution = 1.0; ///< e in [0, 1] for sphere–sphere contacts; 1 is elastic
-    /// μ in [0, 1] for sphere–sphere contacts: the share of their relative tangential speed a
-    /// contact takes, the lecture's wall rule w_t = (1 − μ)·v_t between two spheres (0: none).
+    /// μ in [0, 1] for sphere–sphere contacts, by Coulomb's law: their relative tangential
+    /// speed loses at most μ times the change a contact makes to their normal speed (0: none).
     double friction = 0.0;
     /// m/s: a contact whose outgoing normal speed is below this comes to rest (speed 0) instead
     /// of bouncing again. Unset: twice the normal speed the body's own acceleration adds in

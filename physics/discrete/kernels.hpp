@@ -43,17 +43,20 @@ inline void running_sums(std::uint32_t* first, std::uint32_t* last, std::uint32_
 /// A sphere's box [x − r, x + r], as the near-pair search tests candidates against it: the
 /// box test of aabb.hpp, overlaps(aabb_of_sphere(a), aabb_of_sphere(b)), without building
 /// the candidate's box (at 10^6 spheres the memory traffic, not the arithmetic, is what a
-/// step waits on). max(lo) <= min(hi) is lo_a <= hi_b and lo_b <= hi_a, as lo <= hi.
+/// step waits on). max(lo) <= min(hi) is lo_a <= hi_b and lo_b <= hi_a, as lo <= hi. With a
+/// margin m, a's box is [x − (r + m), x + (r + m)]: it meets every sphere less than m apart
+/// (the grid's speculative contacts); with m = 0 it is the box of aabb.hpp, bit for bit.
 struct sphere_box_plain
 {
     double lo[3], hi[3];
 
     sphere_box_plain() = default;
-    explicit sphere_box_plain(packed_sphere const& a)
+    explicit sphere_box_plain(packed_sphere const& a, double margin = 0.0)
     {
+        double const reach = a.radius + margin;
         for (Eigen::Index k = 0; k < 3; ++k) {
-            lo[k] = a.x[k] - a.radius;
-            hi[k] = a.x[k] + a.radius;
+            lo[k] = a.x[k] - reach;
+            hi[k] = a.x[k] + reach;
         }
     }
     bool meets(packed_sphere const& b) const
@@ -75,12 +78,13 @@ struct sphere_box_sse2
     __m128d lo_xy, hi_xy, z; // z: z − r, −(z + r)
 
     sphere_box_sse2() = default;
-    explicit sphere_box_sse2(packed_sphere const& a)
+    explicit sphere_box_sse2(packed_sphere const& a, double margin = 0.0)
     {
-        __m128d const a_xy = _mm_loadu_pd(a.x.data()), a_r = _mm_set1_pd(a.radius);
+        double const reach = a.radius + margin;
+        __m128d const a_xy = _mm_loadu_pd(a.x.data()), a_r = _mm_set1_pd(reach);
         lo_xy = _mm_sub_pd(a_xy, a_r);
         hi_xy = _mm_add_pd(a_xy, a_r);
-        z = _mm_set_pd(-(a.x.z() + a.radius), a.x.z() - a.radius);
+        z = _mm_set_pd(-(a.x.z() + reach), a.x.z() - reach);
     }
     bool meets(packed_sphere const& b) const
     {

@@ -84,14 +84,14 @@ void sphere_grid::near_pairs_sparse(std::size_t s, std::vector<sphere_pair>& nea
             runs[k + 1] = {first_at_or_after(key + row_offsets[k] - 1),
                            first_at_or_after(key + row_offsets[k] + 2)};
         packed_sphere const& a = spheres_[p];
-        aabb const a_box = aabb_of_sphere(a.x, a.radius);
+        aabb const a_box = aabb_of_sphere(a.x, a.radius + margin_);
         for (auto const& [begin, end] : runs) {
             for (std::uint32_t q = begin; q < end; ++q) {
                 packed_sphere const& b = spheres_[q];
                 if (!overlaps(a_box, aabb_of_sphere(b.x, b.radius)))
                     continue;
                 near.push_back({p, q});
-                if (spheres_overlap(a.x, a.radius, b.x, b.radius))
+                if (spheres_overlap(a.x, a.radius + margin_, b.x, b.radius))
                     touching.push_back({p, q});
             }
         }
@@ -117,6 +117,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
     std::uint32_t const* const table = cell_begin_.data();
     std::uint64_t const* const keys = cells_.data();
     packed_sphere const* const filed = spheres_.data();
+    double const margin = margin_;
     // Each row's first cell, from the sphere's own; its three cells end three further on.
     auto const row = [](std::uint64_t offset) { return static_cast<std::ptrdiff_t>(offset) - 1; };
     std::array<std::ptrdiff_t, 4> const rows = {row(stride_y_), row(stride_x_ - stride_y_), row(stride_x_),
@@ -135,7 +136,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
             packed_sphere const& a = filed[pair.a];
             packed_sphere const& b = filed[pair.b];
             touching_out[touched] = pair;
-            touched += spheres_overlap(a.x, a.radius, b.x, b.radius);
+            touched += spheres_overlap(a.x, a.radius + margin, b.x, b.radius);
         }
     };
     std::uint32_t const last = slab_begin_[s + 1];
@@ -151,7 +152,7 @@ void sphere_grid::near_pairs_dense(std::size_t s, std::vector<sphere_pair>& near
             for (std::ptrdiff_t const first : rows)
                 runs.add(cell[first], cell[first + 3]);
             ends[j] = runs.filled;
-            boxes[j] = box(filed[p + j]);
+            boxes[j] = box(filed[p + j], margin);
         }
         std::uint32_t const* candidate = runs.ranks.data();
         std::uint32_t count = runs.filled;

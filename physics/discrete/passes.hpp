@@ -40,6 +40,7 @@ struct wall_pass_result
 {
     free_accelerations free_a;
     sphere_extent extent;                  ///< of the bodies where it left them
+    double contact_margin = 0.0;           ///< m, for the sphere grid's contacts
     std::optional<cell_frame> keying_frame; ///< when it numbered the spheres' cells in it
 };
 

@@ -18,8 +18,13 @@ namespace {
 constexpr double rounding_overlap = 0x1p-42;
 
 /// Pushes the pair apart in proportion to the inverse masses if it overlaps by more than
-/// rounding_overlap, listing both spheres as moved; returns whether it did.
-[[gnu::always_inline]] inline bool separate(sphere_grid& grid, sphere_pair const& c, once_per_pass const& once, std::vector<std::uint32_t>& moved)
+/// rounding_overlap, listing both spheres as moved; returns whether it did. Under forces
+/// (free accelerations given, by slot), a pair one above the other (its normal within 60° of
+/// the pair's acceleration) pushes the upper sphere alone, as support stops the upper sphere
+/// alone (velocity_passes.cpp): the lower one carries it. Pushing both by their masses
+/// squeezed the bottom layer of a pile sideways along the floor, a little every step.
+[[gnu::always_inline]] inline bool separate(sphere_grid& grid, sphere_pair const& c, once_per_pass const& once,
+                                            std::vector<std::uint32_t>& moved, std::span<vec3 const> free_a)
 {
     packed_sphere& s = grid.sphere(c.a);
     packed_sphere& t = grid.sphere(c.b);
@@ -34,8 +39,17 @@ constexpr double rounding_overlap = 0x1p-42;
     if (gap >= -rounding_overlap * reach || total == 0.0)
         return false;
     vec3 const n = detail::contact_normal(d, distance);
-    s.x -= (gap * s_inverse_mass / total) * n;
-    t.x += (gap * t_inverse_mass / total) * n;
+    double share_s = s_inverse_mass / total, share_t = t_inverse_mass / total;
+    if (!free_a.empty()) {
+        vec3 const down = free_a[grid.slot(c.a)] + free_a[grid.slot(c.b)];
+        double const along = n.dot(down); // n is from t to s: < 0 when s is above t
+        if (std::abs(along) > 0.5 * down.norm() && s_inverse_mass > 0.0 && t_inverse_mass > 0.0) {
+            share_s = along < 0.0 ? 1.0 : 0.0;
+            share_t = 1.0 - share_s;
+        }
+    }
+    s.x -= (gap * share_s) * n;
+    t.x += (gap * share_t) * n;
     once.list(moved, c.a);
     once.list(moved, c.b);
     return true;
@@ -48,14 +62,15 @@ constexpr double rounding_overlap = 0x1p-42;
 /// block's pairs to check first, without a branch (each written, kept by advancing the count
 /// by the test), and lists the rest of the block again after a push, which may have marked
 /// more: the pairs checked are exactly those the test admits in order.
-void separate_slab(sphere_grid& grid, contact_slab& slab, once_per_pass const& once, std::uint32_t recent)
+void separate_slab(sphere_grid& grid, contact_slab& slab, once_per_pass const& once, std::uint32_t recent,
+                   std::span<vec3 const> free_a)
 {
     slab.touched.clear(); // now: the spheres this pass moved
     sphere_pair const* const near = slab.near.data();
     std::size_t const pairs = slab.near.size();
     if (recent == 0) {
         for (std::size_t k = 0; k < pairs; ++k)
-            separate(grid, near[k], once, slab.touched);
+            separate(grid, near[k], once, slab.touched, free_a);
         return;
     }
     constexpr std::size_t block = 16;
@@ -74,7 +89,7 @@ void separate_slab(sphere_grid& grid, contact_slab& slab, once_per_pass const& o
         std::size_t listed = list_due(first), at = 0;
         while (at < listed) {
             std::uint32_t const k = due[at++];
-            if (separate(grid, near[k], once, slab.touched)) { // it marked two spheres: list the rest again
+            if (separate(grid, near[k], once, slab.touched, free_a)) { // it marked two spheres: list the rest again
                 listed = list_due(k + 1);
                 at = 0;
             }
@@ -96,7 +111,7 @@ void position_passes(step_context const& step, free_accelerations free_a, discre
     for (int pass = 0; pass < step.settings.position_iterations; ++pass) {
         std::uint32_t const recent = pass == 0 ? 0 : stamp;
         once_per_pass const once{ws.mark, ++stamp};
-        by_parity(ws, step.loops, [&](contact_slab& slab) { separate_slab(grid, slab, once, recent); });
+        by_parity(ws, step.loops, [&](contact_slab& slab) { separate_slab(grid, slab, once, recent, free_a.a); });
         // The spheres moved meet the walls; the body slot is looked up only for the few that
         // touch one. Each goes on the slab's list to be written back, once for each pass that
         // moved it (writing the last position twice costs less than remembering whether it

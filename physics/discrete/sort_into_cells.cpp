@@ -1,5 +1,6 @@
 // Phase 3 of the discrete step: the spheres sorted into cells, and the near pairs of each slab.
 
+#include "kernels.hpp"
 #include "passes.hpp"
 
 #include "physics/time_of_impact.hpp"
@@ -12,11 +13,14 @@ namespace {
 
 /// The near pairs from a broadphase other than the grid, put in the grid's order: each pair in
 /// the slab of its first sphere in cell order, in that order, so that the broadphase changes
-/// the cost only.
+/// the cost only. With a contact margin m, every box is grown by m, which finds every pair the
+/// grid's test would (one box grown by m, discrete/kernels.hpp) and some more, and the grid's
+/// own test then keeps the same pairs it would have found.
 void pairs_from_broadphase(broadphase_kind kind, collision_bodies const& b, discrete_workspace& ws)
 {
     auto& other = ws.other;
-    boxes_of_spheres(b.x, b.radius, other.boxes, other.members);
+    double const margin = ws.grid.contact_margin();
+    boxes_of_spheres(b.x, b.radius, other.boxes, other.members, margin);
     find_overlapping_pairs(kind, other.boxes, other.pairs, other.broadphase);
     sphere_grid const& grid = ws.grid;
     grid.ranks(b.x.size(), other.ranks);
@@ -33,12 +37,14 @@ void pairs_from_broadphase(broadphase_kind kind, collision_bodies const& b, disc
     for (box_pair const& p : other.pairs) {
         box_pair const ranks = in_cell_order(p);
         sphere_pair const pair{ranks.a, ranks.b};
-        contact_slab& slab = ws.slabs[grid.slab_of(pair.a)];
-        slab.near.push_back(pair);
         packed_sphere const& s = grid.sphere(pair.a);
         packed_sphere const& t = grid.sphere(pair.b);
-        if (spheres_overlap(s.x, s.radius, t.x, t.radius))
-            slab.contacts.push_back(pair);
+        if (margin > 0.0 && !sphere_box_plain(s, margin).meets(t))
+            continue;
+        contact_slab& slab = ws.slabs[grid.slab_of(pair.a)];
+        slab.near.push_back(pair);
+        if (spheres_overlap(s.x, s.radius + margin, t.x, t.radius))
+            slab.contacts.push_back(pair); // of the pairs the broadphase found: boxes that overlap
     }
 }
 
@@ -59,6 +65,7 @@ std::size_t sort_into_cells(step_context const& step, wall_pass_result const& wa
     };
     sphere_grid::slab_ready const none;
     bool gridded = false;
+    grid.set_contact_margin(walls.contact_margin);
     if (step.obstacles.empty()) { // boxes move spheres after the wall pass noted their extent
         std::optional<cell_keys> const keyed =
             walls.keying_frame ? std::optional<cell_keys>({ws.cell_keys, *walls.keying_frame, ws.cell_x})

@@ -106,7 +106,7 @@ std::optional<sphere_grid::layout> sphere_grid::lay_out(sphere_extent const& all
     //    cell after it) is in the same row too: the pairs of a slab then read the table and
     //    the spheres of that slab and the next alone, which lets them be found before the
     //    slab after that is sorted.
-    double const diameter = 2.0 * all.largest_radius;
+    double const diameter = 2.0 * all.largest_radius + margin_; // what a near pair spans on an axis
     double const reach =
         std::max(all.lowest.cwiseAbs().maxCoeff(), all.highest.cwiseAbs().maxCoeff()) / diameter;
     if (!(reach <= cells::largest_cell_coordinate))

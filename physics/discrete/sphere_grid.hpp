@@ -188,10 +188,18 @@ public:
     /// entries of bodies that are not spheres are left as they were).
     void ranks(std::size_t n, std::vector<std::uint32_t>& out) const;
 
+    /// The contact margin m (m >= 0) of the builds that follow: near pairs and contacts are
+    /// found as if one sphere of each pair were m larger (speculative contacts, which a step
+    /// under forces needs: two spheres a rounding error apart that fall together are still a
+    /// contact). 0, the default, finds the pairs that touch.
+    void set_contact_margin(double m) { margin_ = m; }
+    double contact_margin() const { return margin_; }
+
     /// Clears `near` and fills it with every pair of slab s whose boxes [x − r, x + r] overlap
     /// (the broadphases' rule, at the positions given to build()), as positions in cell order,
     /// a < b, sorted by a, then b; `touching` gets those of them whose spheres touch
-    /// (|x_a − x_b| <= r_a + r_b), in the same order.
+    /// (|x_a − x_b| <= r_a + r_b), in the same order. With a contact margin m, the first box
+    /// is [x − (r + m), x + (r + m)] and touching is |x_a − x_b| <= r_a + r_b + m.
     /// `with` chooses the box test: the fast kernel, or its plain reference (for the tests
     /// that compare the two, discrete/kernels.hpp).
     void near_pairs(std::size_t s, std::vector<sphere_pair>& near, std::vector<sphere_pair>& touching,
@@ -248,6 +256,7 @@ private:
     auto filer();
 
     bool in_cell_order_ = false;
+    double margin_ = 0.0; ///< m, the contact margin
     std::optional<cell_frame> keying_frame_;
     std::uint64_t stride_y_ = 0; ///< key step to the next y-cell (= cells in z, padded)
     std::uint64_t stride_x_ = 0; ///< key step to the next x-cell

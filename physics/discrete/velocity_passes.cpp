@@ -75,34 +75,89 @@ void copy_contact_spheres(step_context const& step, free_accelerations free_a, d
                 slab.touched.push_back(k);
         }
     });
-    // The contacts as positions among the copies, and their normals: found once.
+    // The contacts as positions among the copies, their normals, and what each allows: found
+    // once. A pair apart at the end of free motion (a speculative contact, found within the
+    // grid's margin) would end the step a gap g apart: it may approach faster than it did in
+    // free motion by g/h and still end touching, so its velocities after the passes may close
+    // at up to g/h − closing before (and no less than 0, which the position passes answer).
+    auto const& moving = ws.moving;
     each_slab(ws, step.loops, [&](contact_slab& slab) {
         slab.moving_pairs.resize(slab.contacts.size());
         slab.normals.resize(slab.contacts.size());
+        slab.allowed.resize(slab.contacts.size());
         for (std::size_t k = 0; k < slab.contacts.size(); ++k) {
             sphere_pair const& c = slab.contacts[k];
-            slab.moving_pairs[k] = {ws.listed_at[c.a], ws.listed_at[c.b]};
-            vec3 const d = grid.sphere(c.a).x - grid.sphere(c.b).x;
-            slab.normals[k] = detail::contact_normal(d, d.norm());
+            auto const pair = sphere_pair{ws.listed_at[c.a], ws.listed_at[c.b]};
+            slab.moving_pairs[k] = pair;
+            packed_sphere const& a = grid.sphere(c.a);
+            packed_sphere const& b = grid.sphere(c.b);
+            vec3 const d = a.x - b.x;
+            double const distance = d.norm();
+            vec3 const n = detail::contact_normal(d, distance);
+            slab.normals[k] = n;
+            double const gap = distance - (a.radius + b.radius);
+            double const closing = (moving[pair.a].v - moving[pair.b].v).dot(n);
+            slab.allowed[k] = gap > 0.0 ? std::max(gap / step.h - closing, 0.0) : -1.0;
         }
     });
 }
 
-/// Support, passed up a pile in one pass: after the velocity passes, the contacts in order
-/// of depth along gravity (the deepest first), each one's upper sphere stopped against its
-/// lower one as if the lower were immovable (shock propagation, Guendelman, Bridson and
-/// Fedkiw 2003), where the lower one is supported: it touches a wall its acceleration presses
-/// it into, or rests on a sphere that is supported. The passes before leave momentum
-/// exchanged; this pass leaves no contact of a pile closing, whatever its height, where
-/// Gauss–Seidel passes would need about as many passes as the pile has layers. Spheres that
-/// nothing static carries (a cluster in free fall, two planets that meet) are left as the
-/// passes left them, their momentum kept. One sequential pass: the order is the pile's, not
-/// the slabs'.
-void propagate_support(step_context const& step, discrete_workspace& ws)
+/// The contacts in the order propagate_support() takes them: each under its upper sphere,
+/// which lies against the pair's acceleration; the upper sphere's depth along its own
+/// acceleration orders them (the deepest first), and keeps each sphere's contacts together.
+/// Positions do not change in the velocity passes: one order serves every support pass.
+void order_support(discrete_workspace& ws)
+{
+    sphere_grid const& grid = ws.grid;
+    auto& order = ws.support_order;
+    order.clear();
+    for (std::uint32_t s = 0; s < ws.slabs.size(); ++s) {
+        contact_slab const& slab = ws.slabs[s];
+        for (std::uint32_t k = 0; k < slab.contacts.size(); ++k) {
+            auto const [i, j] = slab.moving_pairs[k];
+            vec3 const down = ws.moving_acceleration[i] + ws.moving_acceleration[j];
+            sphere_pair const& c = slab.contacts[k];
+            bool const a_above = (grid.sphere(c.a).x - grid.sphere(c.b).x).dot(down) < 0.0;
+            std::uint32_t const upper = a_above ? i : j;
+            double const depth = grid.sphere(a_above ? c.a : c.b).x.dot(ws.moving_acceleration[upper]);
+            order.push_back({depth, upper, s, k, a_above});
+        }
+    }
+    std::sort(order.begin(), order.end(), [](auto const& p, auto const& q) {
+        if (p.depth != q.depth)
+            return p.depth > q.depth;
+        if (p.upper != q.upper)
+            return p.upper < q.upper;
+        return p.slab != q.slab ? p.slab < q.slab : p.contact < q.contact;
+    });
+}
+
+/// Support, passed up a pile in one pass: each sphere in order of
+/// depth along gravity (the deepest first) is stopped against the spheres it rests on as if
+/// they were immovable (shock propagation, Guendelman, Bridson and Fedkiw 2003), those of them
+/// that are supported: that are static, touch a wall their acceleration presses them into, or
+/// rest on a sphere that is supported. A sphere in the hollow of three or four below is stopped against
+/// each in turn, a few times over, as stopping it against one can leave it closing on
+/// another. The passes before leave momentum exchanged; this pass leaves no contact of a pile
+/// closing, whatever its height, where Gauss–Seidel passes would need about as many passes as
+/// the pile has layers. Spheres that nothing static carries (a cluster in free fall, two
+/// planets that meet) are left as the passes left them, their momentum kept. One sequential
+/// pass: the order is the pile's, not the slabs'. Friction acts at each stop, by Coulomb's law
+/// (apply_sphere_friction), so a sphere on a slope shallower than atan μ stays.
+///
+/// It runs twice. First, before the momentum-exchange passes, on the resting contacts alone
+/// (`resting_only`: those that would not bounce by the rest threshold of the upper sphere's
+/// own acceleration; under uniform gravity the pair's relative acceleration is zero and tells
+/// nothing): a pile at rest then stays at rest, each layer stopped on the one below, instead of
+/// every layer first pushing the one below it aside by exchanging momentum with it. Then,
+/// after those passes, on every contact.
+void propagate_support(step_context const& step, discrete_workspace& ws, bool resting_only)
 {
     sphere_grid const& grid = ws.grid;
     auto& supported = ws.supported;
-    supported.assign(ws.moving.size(), 0);
+    supported.resize(ws.moving.size());
+    for (std::size_t c = 0; c < supported.size(); ++c) // a static sphere carries like a wall
+        supported[c] = ws.moving[c].inverse_mass == 0.0 ? 1 : 0;
     for (contact_slab const& slab : ws.slabs) {
         for (std::uint32_t k : slab.touched) {
             packed_sphere const& s = grid.sphere(k);
@@ -112,37 +167,68 @@ void propagate_support(step_context const& step, discrete_workspace& ws)
                     supported[c] = 1;
         }
     }
-    auto& order = ws.support_order;
-    order.clear();
-    for (std::uint32_t s = 0; s < ws.slabs.size(); ++s) {
-        contact_slab const& slab = ws.slabs[s];
-        for (std::uint32_t k = 0; k < slab.contacts.size(); ++k) {
-            auto const [i, j] = slab.moving_pairs[k];
-            vec3 const down = ws.moving_acceleration[i] + ws.moving_acceleration[j];
-            sphere_pair const& c = slab.contacts[k];
-            double const depth = (grid.sphere(c.a).x + grid.sphere(c.b).x).dot(down);
-            order.push_back({depth, s, k});
-        }
-    }
-    std::sort(order.begin(), order.end(), [](auto const& p, auto const& q) {
-        return p.depth != q.depth ? p.depth > q.depth : (p.slab != q.slab ? p.slab < q.slab : p.contact < q.contact);
-    });
+    auto const& order = ws.support_order;
+    // One sphere against its supports, held still: projected Gauss–Seidel on its own velocity,
+    // each stop's normal change and friction summed over the sweeps (so a later sweep can take
+    // back what an earlier one gave too much of: summed normal change >= 0, friction within
+    // μ times it), until a sweep changes less than 2^-30 of one step's acceleration.
+    constexpr int most_sweeps = 16;
     auto& moving = ws.moving;
-    for (auto const& o : order) {
-        contact_slab const& slab = ws.slabs[o.slab];
-        auto const [i, j] = slab.moving_pairs[o.contact];
-        sphere_pair const& c = slab.contacts[o.contact];
-        vec3 const down = ws.moving_acceleration[i] + ws.moving_acceleration[j];
-        // n points from b to a: a is the upper sphere when it lies against the acceleration
-        bool const a_above = (grid.sphere(c.a).x - grid.sphere(c.b).x).dot(down) < 0.0;
-        std::uint32_t const upper = a_above ? i : j, lower = a_above ? j : i;
-        vec3 const n = a_above ? slab.normals[o.contact] : vec3(-slab.normals[o.contact]); // lower to upper
-        if (!supported[lower] || moving[upper].inverse_mass == 0.0)
+    auto& stops = ws.support_stops;
+    for (std::size_t first = 0, last = 0; first < order.size(); first = last) {
+        std::uint32_t const upper = order[first].upper;
+        for (last = first; last < order.size() && order[last].upper == upper; ++last) {}
+        if (moving[upper].inverse_mass == 0.0)
             continue;
-        supported[upper] = 1;
-        double const closing = (moving[upper].v - moving[lower].v).dot(n);
-        if (closing < 0.0)
-            moving[upper].v -= closing * n;
+        vec3& v = moving[upper].v;
+        stops.clear();
+        for (std::size_t e = first; e < last; ++e) {
+            auto const& o = order[e];
+            contact_slab const& slab = ws.slabs[o.slab];
+            auto const [i, j] = slab.moving_pairs[o.contact];
+            std::uint32_t const lower = o.a_above ? j : i;
+            if (!supported[lower])
+                continue;
+            // n points from b to a: from the lower sphere to the upper
+            vec3 const n = o.a_above ? slab.normals[o.contact] : vec3(-slab.normals[o.contact]);
+            double const allowed = std::max(slab.allowed[o.contact], 0.0); // touching: none
+            double const closing = (v - moving[lower].v).dot(n);
+            if (resting_only && slab.allowed[o.contact] < 0.0 &&
+                -closing * step.settings.restitution >=
+                    detail::rest_threshold(step.settings, ws.moving_acceleration[upper], n, step.h))
+                continue; // a bounce: the passes answer it
+            if (closing <= -allowed) // it ends the step on the lower one
+                supported[upper] = 1;
+            stops.push_back({n, allowed, lower});
+        }
+        double const tolerance = 0x1p-20 * ws.moving_acceleration[upper].norm() * step.h;
+        double const mu = step.settings.friction;
+        for (int sweep = 0; sweep < most_sweeps && !stops.empty(); ++sweep) {
+            double largest = 0.0;
+            for (auto& stop : stops) {
+                vec3 const& lower_v = moving[stop.lower].v;
+                double const closing = (v - lower_v).dot(stop.n);
+                double const pushed = std::max(stop.pushed - stop.allowed - closing, 0.0);
+                v += (pushed - stop.pushed) * stop.n;
+                largest = std::max(largest, std::abs(pushed - stop.pushed));
+                stop.pushed = pushed;
+                if (mu > 0.0) {
+                    vec3 const relative = v - lower_v;
+                    vec3 friction = stop.friction - (relative - relative.dot(stop.n) * stop.n);
+                    double const bound = mu * stop.pushed, size = friction.norm();
+                    if (size > bound)
+                        friction *= bound / size;
+                    v += friction - stop.friction;
+                    largest = std::max(largest, (friction - stop.friction).norm());
+                    stop.friction = friction;
+                }
+            }
+            if (largest <= tolerance)
+                break;
+        }
+        for (auto const& stop : stops)
+            if (stop.pushed > 0.0)
+                supported[upper] = 1;
     }
 }
 
@@ -165,14 +251,25 @@ void velocity_passes(step_context const& step, free_accelerations free_a, discre
     auto const acceleration = [&](std::uint32_t c) -> vec3 const& {
         return free_a.any() ? ws.moving_acceleration[c] : still;
     };
+    if (free_a.any()) {
+        order_support(ws);
+        propagate_support(step, ws, true);
+    }
     for (int pass = 0; pass < std::max(step.settings.velocity_iterations, 1); ++pass) {
         by_parity(ws, step.loops, [&](contact_slab& slab) {
             slab.changed = false;
             for (std::size_t k = 0; k < slab.moving_pairs.size(); ++k) {
                 auto const [i, j] = slab.moving_pairs[k];
-                if (!detail::respond_to_sphere_contact(moving[i].v, moving[i].inverse_mass, acceleration(i),
-                                                       moving[j].v, moving[j].inverse_mass, acceleration(j),
-                                                       slab.normals[k], step.settings, step.h))
+                double const allowed = slab.allowed[k];
+                bool const responded =
+                    allowed < 0.0
+                        ? detail::respond_to_sphere_contact(moving[i].v, moving[i].inverse_mass, acceleration(i),
+                                                            moving[j].v, moving[j].inverse_mass, acceleration(j),
+                                                            slab.normals[k], step.settings, step.h)
+                        : detail::respond_to_speculative_contact(moving[i].v, moving[i].inverse_mass, moving[j].v,
+                                                                 moving[j].inverse_mass, slab.normals[k], allowed,
+                                                                 step.settings);
+                if (!responded)
                     continue;
                 slab.responses += pass == 0 ? 1U : 0U;
                 slab.changed = true;
@@ -189,7 +286,7 @@ void velocity_passes(step_context const& step, free_accelerations free_a, discre
             break;
     }
     if (free_a.any())
-        propagate_support(step, ws);
+        propagate_support(step, ws, false);
     std::span<vec3> const v = step.bodies.v;
     std::span<vec3> const x = step.bodies.x;
     bool const move_by_change = free_a.any(); // without forces nothing sinks

@@ -20,6 +20,10 @@ struct contact_slab
     std::vector<sphere_pair> near;      ///< boxes overlap, in resolution order
     std::vector<sphere_pair> contacts;  ///< the near pairs that touch, in the same order
     std::vector<vec3> normals;          ///< each contact's unit normal, from b to a
+    /// Each contact's allowed approach, m/s: for spheres apart (a speculative contact) the
+    /// closing speed that leaves them touching at the end of the step, at least 0; −1 for
+    /// spheres that touch, which meet by the collision rule.
+    std::vector<double> allowed;
     std::vector<std::uint32_t> copied;  ///< the spheres of its contacts that this slab lists
     std::uint32_t first_copied = 0;     ///< where its copies start in the workspace's `moving`
     std::vector<sphere_pair> moving_pairs; ///< its contacts, as positions in `moving`
@@ -35,6 +39,7 @@ struct wall_chunk
     std::vector<std::uint32_t> moved; ///< the spheres that bounced
     std::uint64_t responses = 0;      ///< sphere–wall responses
     bool accelerated = false;         ///< some body's free motion changed its velocity
+    double largest_change = 0.0;      ///< m/s, of a velocity in free motion
     sphere_extent extent;             ///< of the bodies where the pass left them
 };
 
@@ -73,14 +78,27 @@ struct discrete_workspace
     std::vector<moving_sphere> moving;     ///< the contacts' spheres, as listed
     std::vector<vec3> moving_acceleration; ///< and their free accelerations
     std::vector<std::uint32_t> listed_at;  ///< where in `moving`, by cell order
-    /// A contact in the order support is passed up a pile: its depth along gravity.
+    /// A contact in the order support is passed up a pile: under its upper sphere (a
+    /// position in `moving`), at that sphere's depth along its acceleration.
     struct support_entry
     {
         double depth;
+        std::uint32_t upper;
         std::uint32_t slab;
         std::uint32_t contact;
+        bool a_above; ///< the upper sphere is the contact's a
     };
     std::vector<support_entry> support_order;
+    /// One sphere's stops against its supports while support is passed up (velocity_passes.cpp).
+    struct support_stop
+    {
+        vec3 n;                          ///< unit normal, from the lower sphere to it
+        double allowed;                  ///< m/s of approach it may keep
+        std::uint32_t lower;             ///< position in `moving`
+        double pushed = 0.0;             ///< m/s, the normal change summed over the sweeps
+        vec3 friction = vec3::Zero();    ///< m/s, the tangential change summed likewise
+    };
+    std::vector<support_stop> support_stops;
     std::vector<std::uint8_t> supported; ///< by position in `moving`: carried by a wall
 };
 

@@ -133,29 +133,57 @@ TEST(CollideSpheres, SeparatingPairsAreLeftAlone)
 
 // ---- the two-sphere response both collision modes use -----------------------------------
 
-// Friction between spheres is the walls' rule between two bodies: a contact takes the share μ
-// of the relative tangential speed, and like every impulse between the two it keeps their
-// momentum. Two spheres (masses 1 and 3) meet head-on along x while sliding past each other
-// along y at 2 m/s: after an elastic contact with μ = 0.25 they slide at 1.5 m/s, the normal
-// exchange is the plain elastic one, and the momentum is the same to rounding (1e-15 of it).
-TEST(SphereContact, FrictionTakesItsShareOfTheTangentialSpeedAndKeepsMomentum)
+// Friction between spheres is Coulomb's: the relative tangential speed loses at most μ times
+// the change the contact made to the relative normal speed (the impulses' cone |J_t| <= μ·J_n,
+// on speeds, as spheres here do not spin), and like every impulse between the two it keeps
+// their momentum. Two spheres (masses 1 and 3) meet head-on along x, closing at 2 m/s, while
+// sliding past each other along y at 2 m/s. An elastic contact turns the closing 2 m/s into
+// 2 m/s apart, a change of 4 m/s: with μ = 0.25 the sliding loses 1 m/s and goes on at 1 m/s;
+// with μ = 1 it would lose up to 4 m/s and so stops (the contact sticks, and friction never
+// reverses it). The normal exchange is the plain elastic one, and momentum is the same to
+// rounding (1e-15 of it: each speed is a few ulps of 1).
+TEST(SphereContact, FrictionIsCoulombsBoundedByTheNormalChangeAndKeepsMomentum)
 {
     collision_settings settings;
     settings.restitution = 1.0;
-    settings.friction = 0.25;
     vec3 const n(1, 0, 0); // from b to a
-    vec3 v_a(-1, 1, 0), v_b(1, -1, 0);
     double const m_a = 1.0, m_b = 3.0;
-    vec3 const p0 = m_a * v_a + m_b * v_b;
     vec3 const still = vec3::Zero();
-    ASSERT_TRUE(detail::respond_to_sphere_contact(v_a, 1 / m_a, still, v_b, 1 / m_b, still, n, settings, 1.0 / 60));
-    EXPECT_NEAR((v_a - v_b).y(), 0.75 * 2.0, 1e-15);
-    EXPECT_NEAR((v_a - v_b).x(), 2.0, 1e-15); // elastic: the closing 2 m/s comes back
-    EXPECT_LE((m_a * v_a + m_b * v_b - p0).norm(), 1e-15 * 4.0);
+    for (auto const& [friction, sliding_after] : {std::pair{0.25, 1.0}, std::pair{1.0, 0.0}}) {
+        settings.friction = friction;
+        vec3 v_a(-1, 1, 0), v_b(1, -1, 0);
+        vec3 const p0 = m_a * v_a + m_b * v_b;
+        ASSERT_TRUE(detail::respond_to_sphere_contact(v_a, 1 / m_a, still, v_b, 1 / m_b, still, n, settings, 1.0 / 60));
+        EXPECT_NEAR((v_a - v_b).y(), sliding_after, 1e-15) << friction;
+        EXPECT_NEAR((v_a - v_b).x(), 2.0, 1e-15) << friction; // elastic: the closing 2 m/s comes back
+        EXPECT_LE((m_a * v_a + m_b * v_b - p0).norm(), 1e-15 * 4.0) << friction;
+    }
     settings.friction = 0.0; // none: the tangential motion is untouched
     vec3 w_a(-1, 1, 0), w_b(1, -1, 0);
     detail::respond_to_sphere_contact(w_a, 1 / m_a, still, w_b, 1 / m_b, still, n, settings, 1.0 / 60);
     EXPECT_EQ((w_a - w_b).y(), 2.0);
+}
+
+// A speculative contact: spheres 1 mm apart at the end of free motion, in a step of 0.1 s, may
+// close at 1 cm/s and still end touching. Closing at 3 cm/s, they lose the excess 2 cm/s along
+// the normal, shared by inverse mass (masses 1 and 3: 1.5 and 0.5 cm/s), with no bounce and
+// momentum kept; closing at 1 cm/s or slower they are left alone. Tolerance: a few ulps of the
+// speeds.
+TEST(SphereContact, ASpeculativeContactTakesOnlyTheApproachThatWouldOverlap)
+{
+    collision_settings settings;
+    settings.restitution = 1.0; // not used: apart spheres do not bounce
+    vec3 const n(0, 0, 1);
+    double const allowed = 0.001 / 0.1;
+    vec3 v_a(0, 0, -0.02), v_b(0, 0, 0.01);
+    ASSERT_TRUE(detail::respond_to_speculative_contact(v_a, 1.0, v_b, 1.0 / 3, n, allowed, settings));
+    EXPECT_NEAR((v_a - v_b).z(), -allowed, 1e-17);
+    EXPECT_NEAR(v_a.z(), -0.02 + 0.015, 1e-17);
+    EXPECT_NEAR(v_b.z(), 0.01 - 0.005, 1e-17);
+    EXPECT_NEAR(v_a.z() + 3 * v_b.z(), -0.02 + 0.03, 1e-17);
+    vec3 slow_a(0, 0, -0.005), slow_b(0, 0, 0.005);
+    EXPECT_FALSE(detail::respond_to_speculative_contact(slow_a, 1.0, slow_b, 1.0, n, allowed, settings));
+    EXPECT_EQ(slow_a.z(), -0.005);
 }
 
 } // namespace

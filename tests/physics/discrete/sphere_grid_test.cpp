@@ -70,6 +70,47 @@ std::vector<box_pair> broadphase_pairs(std::vector<vec3> const& x, std::vector<d
     return pairs;
 }
 
+// With a contact margin m (the discrete step's speculative contacts, under forces) the grid's
+// contacts are exactly the pairs less than m apart, |x_a − x_b| <= r_a + r_b + m, as a search
+// of every pair finds them: random spheres, radii spanning a factor of 5, a margin of a
+// quarter of the largest radius (the step uses at most half), which widens the cells.
+TEST(SphereGrid, WithAContactMarginFindsEveryPairWithinIt)
+{
+    std::mt19937_64 rng(11);
+    std::uniform_real_distribution<double> in(-1.0, 1.0), radius(0.01, 0.05);
+    std::vector<vec3> x;
+    std::vector<double> r;
+    for (int k = 0; k < 3000; ++k) {
+        x.emplace_back(in(rng), in(rng), in(rng));
+        r.push_back(radius(rng));
+    }
+    double const margin = 0.25 * 0.05;
+    sphere_grid grid;
+    grid.set_contact_margin(margin);
+    std::vector<double> const inverse_mass(x.size(), 1.0);
+    ASSERT_TRUE(grid.build(x, r, inverse_mass, nullptr));
+    std::vector<box_pair> found;
+    std::vector<sphere_pair> near, touching;
+    for (std::size_t s = 0; s < grid.slab_count(); ++s) {
+        grid.near_pairs(s, near, touching);
+        for (sphere_pair const& p : touching)
+            found.push_back({std::min(grid.slot(p.a), grid.slot(p.b)), std::max(grid.slot(p.a), grid.slot(p.b))});
+    }
+    std::sort(found.begin(), found.end());
+    std::vector<box_pair> expected;
+    std::size_t touching_without_margin = 0;
+    for (std::uint32_t i = 0; i < x.size(); ++i) {
+        for (std::uint32_t j = i + 1; j < x.size(); ++j) {
+            double const distance = (x[i] - x[j]).norm();
+            if (distance <= r[i] + r[j] + margin)
+                expected.push_back({i, j});
+            touching_without_margin += distance <= r[i] + r[j] ? 1U : 0U;
+        }
+    }
+    EXPECT_EQ(found, expected);
+    EXPECT_GT(expected.size(), touching_without_margin + 100); // the margin found more
+}
+
 // The discrete step's own grid must find exactly the broadphases' pairs: random scenes with
 // radii spanning a factor of 20, point masses (radius 0, never filed), duplicates, centres
 // on both sides of the origin and far from it, and exactly touching spheres on a lattice.
