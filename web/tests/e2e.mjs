@@ -159,6 +159,29 @@ async function pickable_body() {
   });
 }
 
+/**
+ * Opens a WebSocket of the browser's own (not the page's) to a room, named `name`, and
+ * resolves once the welcome arrived; its close event's code, reason and wasClean are kept for
+ * socket_closed(). A client library other than ours: what it reports is what a browser saw.
+ */
+function open_socket(name, room) {
+  return page.evaluate(({ name, url }) => new Promise((resolve_open, reject) => {
+    const ws = new WebSocket(url);
+    window.test_sockets ??= {};
+    const entry = (window.test_sockets[name] = { ws, closed: null });
+    ws.onmessage = () => resolve_open(true);
+    ws.onclose = (event) => {
+      entry.closed = { code: event.code, reason: event.reason, clean: event.wasClean };
+      reject(new Error(`closed before the welcome: ${event.code}`));
+    };
+  }), { name, url: `ws://127.0.0.1:${server.port}/ws/${room}` });
+}
+
+/** What the browser reported when the socket `name` closed, once it did. */
+function socket_closed(name) {
+  return wait_for(`the browser's socket "${name}" to close`, (kugel, name) => window.test_sockets?.[name]?.closed, name);
+}
+
 async function open_room(room) {
   await page.goto(`http://127.0.0.1:${server.port}/?room=${room}`);
   // A frame drawn after the welcome: the camera and the floor are where the scene put them
@@ -302,10 +325,22 @@ test('a refused command shows a readable message on the page', async () => {
   await page.locator('#spawn-radius').fill('0.25');
 });
 
+test('a frame over the server\'s limit reaches the browser as close code 1009, not 1006', async () => {
+  // 4 MiB against the default limit of 64 KiB: most of it is still arriving when the server
+  // closes, and unless the server reads it away the connection is reset and the close lost.
+  await open_socket('oversized', 'resting');
+  await page.evaluate(() => window.test_sockets.oversized.ws.send('x'.repeat(4 << 20)));
+  const closed = await socket_closed('oversized');
+  assert.deepEqual(closed, { code: 1009, reason: 'message too big', clean: true });
+});
+
 test('the page reconnects by itself when the server restarts', async () => {
   const port = server.port;
   const welcomes = (await state()).welcomes;
+  await open_socket('shutdown', 'arena');
   await stop_server(server);
+  // A server that shuts down closes every connection with 1001 (going away), in a handshake.
+  assert.deepEqual(await socket_closed('shutdown'), { code: 1001, reason: 'server shutting down', clean: true });
   await wait_for('the HUD to say it is reconnecting', () => document.getElementById('hud-connection').textContent.startsWith('reconnecting'));
   server = await start_server(port);
   await wait_for('a new welcome after the restart', (kugel, n) => kugel.state.welcomes > n && kugel.state.connection === 'connected', welcomes);
