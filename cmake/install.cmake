@@ -1,6 +1,6 @@
-# `cmake --install BUILD --prefix PREFIX` installs the client library for programs of one's
-# own: kugel_client and kugel_protocol (static), their headers, kugel-client, and a CMake
-# package, so that a project outside this tree writes
+# `cmake --install BUILD --prefix PREFIX` installs kugel-server with its scenes and page, and
+# the client library for programs of one's own: kugel_client and kugel_protocol (static),
+# their headers, kugel-client, and a CMake package, so that a project outside this tree writes
 #   find_package(Kugel 0.1 REQUIRED)
 #   target_link_libraries(app PRIVATE Kugel::client)
 # tests/install builds such a project against an installed tree.
@@ -14,6 +14,16 @@ install(FILES client/connection.hpp client/latency_histogram.hpp client/stalled_
   client/url.hpp
   DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/client)
 install(TARGETS kugel-client RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+
+# The server as a packaged one runs: kugel-server in bin, its scenes and the built page in
+# share/kugel, where a kugel-server run without --web-root finds the page
+# (server/static_files.hpp, page_places).
+install(TARGETS kugel-server RUNTIME DESTINATION ${CMAKE_INSTALL_BINDIR})
+install(DIRECTORY scenes/ DESTINATION ${CMAKE_INSTALL_DATADIR}/kugel/scenes
+  FILES_MATCHING PATTERN "*.json" PATTERN "README.md")
+if(TARGET web)
+  install(DIRECTORY web/dist/ DESTINATION ${CMAKE_INSTALL_DATADIR}/kugel/web)
+endif()
 
 set(kugel_package_dir ${CMAKE_INSTALL_LIBDIR}/cmake/Kugel)
 install(EXPORT KugelTargets NAMESPACE Kugel:: FILE KugelTargets.cmake DESTINATION ${kugel_package_dir})

@@ -8,12 +8,14 @@
 #include "scene/scene.hpp"
 #include "protocol/messages.hpp"
 #include "server.hpp"
+#include "static_files.hpp"
 
 #include <CLI/CLI.hpp>
 #include <boost/system/system_error.hpp>
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <filesystem>
 #include <iostream>
 #include <string>
 #include <vector>
@@ -51,6 +53,26 @@ int run_headless_command(std::string const& scene_file, std::vector<std::string>
 }
 
 /// "NAME=SCENE" into a room_spec.
+/// The page a server run without --web-root serves: the first of server::page_places() that
+/// holds one, said in the log with where it was found, or none, said with where it looked.
+std::filesystem::path default_web_root(char const* argv0)
+{
+    std::error_code ec;
+    std::filesystem::path executable = std::filesystem::read_symlink("/proc/self/exe", ec);
+    if (ec)
+        executable = std::filesystem::absolute(argv0, ec);
+    auto const places = kugel::server::page_places(executable, KUGEL_SOURCE_DIR);
+    if (auto const found = kugel::server::find_page(places)) {
+        spdlog::info("the page: {} ({}; --web-root DIR serves another)", found->root.string(), found->where);
+        return found->root;
+    }
+    std::string looked;
+    for (auto const& place : places)
+        looked += (looked.empty() ? "" : ", ") + place.root.string();
+    spdlog::info("no page to serve: no index.html in {}; --web-root DIR serves one", looked);
+    return {};
+}
+
 kugel::server::room_spec parse_room(std::string const& text)
 {
     auto const equals = text.find('=');
@@ -142,7 +164,10 @@ int main(int argc, char** argv)
                    "Snapshots per second (Hz), at most the tick rate")
         ->check(CLI::Range(0.001, 10000.0))
         ->capture_default_str();
-    app.add_option("--web-root", web_root, "Directory of the page's static files")
+    app.add_option("--web-root", web_root,
+                   "Directory of the page's static files. Without it the server serves the page\n"
+                   "it finds in web/ next to the executable, share/kugel/web of its install\n"
+                   "prefix, or web/dist of the source tree it was built from (the log says which)")
         ->check(CLI::ExistingDirectory);
     app.add_option("--max-bodies", options.max_bodies, "Bodies per room before spawns are refused")
         ->capture_default_str();
@@ -248,7 +273,7 @@ int main(int argc, char** argv)
         if (!options.admin_token.empty() && options.admin_token.size() < 16)
             spdlog::warn("the admin token has {} characters; one of 16 or more random characters "
                          "is much harder to guess", options.admin_token.size());
-        options.web_root = web_root;
+        options.web_root = web_root.empty() ? default_web_root(argv[0]) : std::filesystem::path(web_root);
         options.state_dir = state_dir;
         options.checkpoint_interval = std::chrono::duration_cast<std::chrono::milliseconds>(
             std::chrono::duration<double>(checkpoint_interval));

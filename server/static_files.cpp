@@ -108,4 +108,27 @@ std::string_view mime_type(std::string_view path)
     return "application/octet-stream";
 }
 
+std::vector<page_place> page_places(std::filesystem::path const& executable,
+                                    std::filesystem::path const& source_tree)
+{
+    std::filesystem::path const bin = executable.parent_path();
+    std::vector<page_place> places{
+        {bin / "web", "next to the executable"},
+        {bin.parent_path() / "share" / "kugel" / "web", "in the install prefix"},
+    };
+    if (!source_tree.empty())
+        places.push_back({source_tree / "web" / "dist", "in the source tree it was built from"});
+    return places;
+}
+
+std::optional<page_place> find_page(std::vector<page_place> const& places)
+{
+    for (page_place const& place : places) {
+        std::error_code ec;
+        if (std::filesystem::is_regular_file(place.root / "index.html", ec))
+            return place;
+    }
+    return std::nullopt;
+}
+
 } // namespace kugel::server

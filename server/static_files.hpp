@@ -3,6 +3,7 @@
 #include <filesystem>
 #include <optional>
 #include <string_view>
+#include <vector>
 
 namespace kugel::server {
 
@@ -23,5 +24,22 @@ std::string_view mime_type(std::string_view path);
 
 /// The target's path: what comes before `?` or `#` (the query string is not the path).
 std::string_view path_of(std::string_view target);
+
+/// A place where a server run without --web-root looks for the page.
+struct page_place
+{
+    std::filesystem::path root;
+    std::string_view where; ///< for the log: "next to the executable", ...
+};
+
+/// Where kugel-server looks for the page when no --web-root is given, in this order: `web`
+/// next to the executable, `share/kugel/web` under the install prefix it runs from
+/// (PREFIX/bin/kugel-server), and the built page `web/dist` of the source tree it was built
+/// from (a build directory's binary), when that is known.
+std::vector<page_place> page_places(std::filesystem::path const& executable,
+                                    std::filesystem::path const& source_tree);
+
+/// The first place that holds a page (a regular file index.html), or nullopt.
+std::optional<page_place> find_page(std::vector<page_place> const& places);
 
 } // namespace kugel::server

@@ -17,11 +17,25 @@ function(run)
 endfunction()
 run(${CMAKE_COMMAND} --install "${BUILD}" --prefix "${prefix}")
 foreach(file include/client/connection.hpp include/protocol/codec.hpp bin/kugel-client
-             lib/cmake/Kugel/KugelConfig.cmake)
+             lib/cmake/Kugel/KugelConfig.cmake bin/kugel-server share/kugel/scenes/arena.json
+             share/kugel/scenes/README.md)
   if(NOT EXISTS "${prefix}/${file}")
     message(FATAL_ERROR "not installed: ${file}")
   endif()
 endforeach()
+# The installed server finds the installed page by itself (when the page was built: it needs
+# Node.js). Stopped by SIGTERM after a few seconds; what counts is the line it logged.
+if(EXISTS "${SOURCE}/web/dist/index.html")
+  if(NOT EXISTS "${prefix}/share/kugel/web/index.html")
+    message(FATAL_ERROR "not installed: share/kugel/web/index.html")
+  endif()
+  execute_process(COMMAND timeout -s TERM 5 "${prefix}/bin/kugel-server" --port 0
+    OUTPUT_VARIABLE server_out ERROR_VARIABLE server_log)
+  string(FIND "${server_log}" "the page: ${prefix}/share/kugel/web (in the install prefix" at)
+  if(at EQUAL -1)
+    message(FATAL_ERROR "the installed kugel-server did not serve the installed page; its log:\n${server_log}")
+  endif()
+endif()
 run(${CMAKE_COMMAND} -S "${SOURCE}/tests/install/outside" -B "${WORK}/outside" -G Ninja
     -DCMAKE_PREFIX_PATH=${prefix} -DCMAKE_BUILD_TYPE=Release)
 run(${CMAKE_COMMAND} --build "${WORK}/outside")

@@ -7,6 +7,7 @@
 #include "http_session.hpp"
 #include "room.hpp"
 #include "server.hpp"
+#include "static_files.hpp"
 
 #include "protocol/message_schemas.hpp"
 #include "support/child_process.hpp"
@@ -618,6 +619,65 @@ TEST(ServerProcess, SigtermClosesEveryClientWithGoingAwayAndExitsZero)
     ASSERT_TRUE(c.raw().closed());
     EXPECT_EQ(c.raw().close_code(), 1001);
     EXPECT_EQ(status, 0) << p.log();
+}
+
+/// Writes a small file (creating its folders).
+void write_file(fs::path const& file, std::string const& text)
+{
+    fs::create_directories(file.parent_path());
+    std::ofstream(file) << text;
+}
+
+// Without --web-root the server looks for the page next to its executable (bin/web), then in
+// its install prefix (share/kugel/web), then in the source tree it was built from
+// (web/dist), and serves the first that holds an index.html; a folder named index.html is no
+// page, and with none anywhere there is no page.
+TEST(PagePlaces, TheFirstPlaceWithAnIndexIsTheOneServed)
+{
+    fs::path const root = fs::path(testing::TempDir()) / "kugel_page_places";
+    fs::remove_all(root);
+    fs::path const executable = root / "prefix" / "bin" / "kugel-server";
+    fs::path const source = root / "source";
+    auto const places = page_places(executable, source);
+    ASSERT_EQ(places.size(), 3U);
+    EXPECT_EQ(find_page(places), std::nullopt);
+    fs::create_directories(root / "prefix" / "bin" / "web" / "index.html"); // a folder
+    EXPECT_EQ(find_page(places), std::nullopt);
+    write_file(source / "web" / "dist" / "index.html", "source");
+    ASSERT_TRUE(find_page(places));
+    EXPECT_EQ(find_page(places)->root, source / "web" / "dist");
+    EXPECT_EQ(find_page(places)->where, "in the source tree it was built from");
+    write_file(root / "prefix" / "share" / "kugel" / "web" / "index.html", "installed");
+    EXPECT_EQ(find_page(places)->root, root / "prefix" / "share" / "kugel" / "web");
+    EXPECT_EQ(find_page(places)->where, "in the install prefix");
+    fs::remove_all(root / "prefix" / "bin" / "web");
+    write_file(root / "prefix" / "bin" / "web" / "index.html", "beside");
+    EXPECT_EQ(find_page(places)->where, "next to the executable");
+    EXPECT_EQ(page_places(executable, {}).size(), 2U); // no source tree known: two places
+    fs::remove_all(root);
+}
+
+// kugel-server run from its build directory without --web-root serves the page built in its
+// source tree, and says so in its log; when that page was not built (no Node.js), it says
+// where it looked and serves none.
+TEST(ServerProcess, WithoutAWebRootServesThePageItFindsAndSaysWhere)
+{
+    fs::path const built = fs::path(KUGEL_SOURCE_DIR) / "web" / "dist";
+    test_support::server_child p(KUGEL_SERVER_EXE,
+                                 {"--room", "still=" + write_scene("page", still_scene()).string()},
+                                 log_file("page"));
+    auto const reply = test_support::http_get(p.port(), "/");
+    if (fs::is_regular_file(built / "index.html")) {
+        EXPECT_NE(p.log().find("the page: " + built.string() + " (in the source tree it was built from"),
+                  std::string::npos) << p.log();
+        EXPECT_EQ(reply.status, 200U);
+        std::ifstream in(built / "index.html");
+        std::string const page{std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+        EXPECT_EQ(reply.body, page);
+    } else {
+        EXPECT_NE(p.log().find("no page to serve: no index.html in"), std::string::npos) << p.log();
+        EXPECT_EQ(reply.status, 404U);
+    }
 }
 
 TEST(ServerProcess, RefusesABadRoomSceneWithExitTwoAndTheReason)
