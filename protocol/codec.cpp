@@ -312,7 +312,8 @@ constexpr auto fields(std::type_identity<snapshot>)
 
 constexpr auto fields(std::type_identity<pong>)
 {
-    return std::tuple{member("ref", &pong::ref), member("tick", &pong::tick)};
+    return std::tuple{member("ref", &pong::ref), member("tick", &pong::tick),
+                      member("tick_ms", &pong::tick_ms, at_least_zero)};
 }
 
 template <class T>

@@ -287,6 +287,9 @@ struct pong
     static constexpr std::string_view type = "pong";
     std::uint64_t ref = 0;
     std::uint64_t tick = 0; ///< the tick the server was at when it answered
+    /// ms the room's last tick took (its commands, its step, a snapshot's copy); absent
+    /// before the first tick
+    std::optional<double> tick_ms;
 
     bool operator==(pong const&) const = default;
 };

@@ -269,7 +269,10 @@ void room::submit(std::shared_ptr<websocket_session> from, protocol::client_mess
     net::post(strand_, [self = shared_from_this(), from = std::move(from),
                         message = std::move(message), admin]() mutable {
         if (auto const* ping = std::get_if<protocol::ping>(&message)) {
-            from->send_reply(share(protocol::encode(protocol::pong{ping->ref, self->counters_.ticks})));
+            protocol::pong pong{ping->ref, self->counters_.ticks, std::nullopt};
+            if (self->counters_.ticks > 0)
+                pong.tick_ms = std::chrono::duration<double, std::milli>(self->last_tick_cost_).count();
+            from->send_reply(share(protocol::encode(pong)));
             return;
         }
         self->pending_commands_.push_back({from, std::move(message), admin});
@@ -722,6 +725,7 @@ void room::send_snapshot()
 void room::record(tick_phases const& phases)
 {
     clock::duration const cost = phases.total();
+    last_tick_cost_ = cost;
     tick_durations_.record(cost);
     ++report_ticks_;
     report_cost_ += cost;

@@ -241,6 +241,7 @@ private:
     clock::time_point report_started_;
     std::uint64_t report_ticks_ = 0;
     clock::duration report_cost_{};
+    clock::duration last_tick_cost_{}; ///< the last tick's, for the pong's tick_ms
     tick_phases report_worst_{}; ///< the costliest tick since the last log line
     std::atomic<std::uint64_t> report_bytes_{0}; ///< snapshot bytes, added by the encoder
     clock::time_point last_late_warning_{};

@@ -97,6 +97,7 @@ inline std::vector<server_message> server_messages()
                             .charge = std::vector{-1.6e-19, 1.6e-19}}},
         snapshot{},
         pong{.ref = 5, .tick = 1207},
+        pong{.ref = 6, .tick = 1208, .tick_ms = 0.42},
     };
 }
 

@@ -352,7 +352,11 @@ TEST(Server, BadInputGetsItsErrorCodeAndTheConnectionStaysUsable)
     EXPECT_EQ(ack.at("ref"), 10);
     EXPECT_TRUE(ack.contains("id"));
     c.send({{"type", "ping"}, {"ref", 11}});
-    EXPECT_EQ(c.next("pong").at("ref"), 11);
+    json const pong = c.next("pong");
+    EXPECT_EQ(pong.at("ref"), 11);
+    // after ticks (an ack names one), the pong says what the last tick took
+    ASSERT_TRUE(pong.contains("tick_ms")) << pong;
+    EXPECT_GE(pong.at("tick_ms").get<double>(), 0.0);
 }
 
 TEST(Server, OversizedFrameIsClosedWith1009)
