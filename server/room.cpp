@@ -100,7 +100,11 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
 {
     world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
     world_.time_phases(true); // for /metrics
-    welcome_ = make_welcome(name_, scene_, world_, settings_);
+    // A restored room frames its scene as a fresh one does: the bounds are the scene's, not
+    // those of wherever the bodies went before the checkpoint (one flung far away would
+    // leave the camera looking at nothing).
+    welcome_ = restored ? make_welcome(name_, scene_, scene::build_world(scene_), settings_)
+                        : make_welcome(name_, scene_, world_, settings_);
     auto const ids = world_.bodies().ids();
     for (std::size_t slot = 0; slot < ids.size(); ++slot) {
         physics::body_id const id = ids[slot];

@@ -104,6 +104,9 @@ std::optional<checkpoint> restore_or_discard(server_options const& options, std:
     std::filesystem::path const file = checkpoint_path(options.state_dir, room);
     try {
         std::optional<checkpoint> c = read_checkpoint(file, room, s.name, fingerprint);
+        if (c && c->bodies.size() > options.max_bodies)
+            throw checkpoint_error(fmt::format("checkpoint {}: it holds {} bodies, more than --max-bodies {}",
+                                               file.string(), c->bodies.size(), options.max_bodies));
         if (c) {
             // A loaded scene the loader refuses and bodies the world refuses are found here
             // too, before anything is started.

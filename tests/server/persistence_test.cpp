@@ -270,6 +270,12 @@ TEST(Persistence, ACorruptOrIncompatibleCheckpointIsRefusedAndLeftUntouched)
     bad_body["bodies"]["mass"][0] = -1.0;
     EXPECT_NE(refusal(dir, bad_body.dump()).find("/bodies (body 0"), std::string::npos);
 
+    // More bodies than the server lets a room hold (400 in the arena's checkpoint): refused
+    // at the start, as a spawn past the limit is refused.
+    server_options small;
+    small.max_bodies = 100;
+    EXPECT_NE(refusal(dir, good, small).find("holds 400 bodies, more than --max-bodies 100"), std::string::npos);
+
     // A file of another room's scene: a "still" room's checkpoint under the default room.
     fs::path const other = fresh_dir("refused_other");
     server_options o;
@@ -280,6 +286,42 @@ TEST(Persistence, ACorruptOrIncompatibleCheckpointIsRefusedAndLeftUntouched)
     }
     EXPECT_NE(refusal(dir, read_text(checkpoint_path(other, "default"))).find("scene 'still'"),
               std::string::npos);
+}
+
+// A restored room's welcome frames the scene as a fresh room's does: in a scene without
+// walls two bodies fly apart for a second before the checkpoint, and the restored welcome's
+// bounds are still those of the scene (bit for bit), not of where the bodies went.
+TEST(Persistence, ARestoredRoomsWelcomeHasTheScenesBounds)
+{
+    fs::path const dir = fresh_dir("bounds");
+    json scene = still_scene();
+    scene.erase("box");
+    scene["bodies"] = json::array({{{"position", {0, 0, 0}}, {"velocity", {-20, 0, 0}}, {"radius", 0.5}, {"mass", 1}},
+                                   {{"position", {2, 0, 0}}, {"velocity", {20, 0, 0}}, {"radius", 0.5}, {"mass", 1}}});
+    server_options o;
+    o.rooms.push_back({"default", write_scene(dir, "apart", scene)});
+    auto const bounds_of = [](json const& welcome) { return welcome.at("scene").at("bounds"); };
+    json fresh_bounds;
+    {
+        test_support::in_process_server s(o);
+        ws_client c(s.port(), "/ws");
+        fresh_bounds = bounds_of(c.next("welcome"));
+    }
+    o.state_dir = dir;
+    o.checkpoint_interval = std::chrono::hours(1); // only the final one
+    {
+        test_support::in_process_server s(o);
+        ws_client c(s.port(), "/ws");
+        c.next("welcome");
+        snapshot_at_or_after(c, 64); // a second: the bodies are 40 m further apart
+        s.stop();
+    }
+    test_support::in_process_server s(o);
+    ws_client c(s.port(), "/ws");
+    json const restored = c.next("welcome");
+    EXPECT_EQ(bounds_of(restored), fresh_bounds);
+    json const snapshot = c.next("snapshot");
+    EXPECT_GT(snapshot.at("tick").get<std::uint64_t>(), 60U) << "the room was restored, not started afresh";
 }
 
 TEST(Persistence, DiscardBadStateMovesTheFileAsideAndStartsFresh)
