@@ -1,7 +1,7 @@
 // The WebSocket to one room: numbers commands with refs, pings once a second for the round
-// trip time, and reconnects by itself with exponential backoff when the connection drops
-// (a server restart), until close() is called. Frames are parsed by a worker
-// (parse_worker.js) when one can start, otherwise here.
+// trip time (and the server's tick time its pongs carry), and reconnects by itself with
+// exponential backoff when the connection drops (a server restart), until close() is
+// called. Frames are parsed by a worker (parse_worker.js) when one can start, otherwise here.
 import { parse_frame } from './parse_frame.js';
 
 /** Milliseconds to wait before reconnect attempt `attempt` (0, 1, 2, ...), with +-20 % jitter. */
@@ -22,17 +22,21 @@ export class Connection {
    * its columns (interpolation.js, snapshot_from_message) instead of message.bodies.
    * on_state(state, detail): 'connecting', 'connected', 'reconnecting' (detail: seconds until
    * the next attempt), 'closed'.
+   * on_attempt_failed(): a socket closed before its welcome (the server is down, or up
+   * without this room: the browser is not told which); called before the next attempt.
    * worker_url: the bundled parse_worker.js, or null to parse on the main thread.
    */
-  constructor({ url, on_message, on_state, ping_interval = 1000, backoff = {}, worker_url = null }) {
+  constructor({ url, on_message, on_state, on_attempt_failed = () => {}, ping_interval = 1000, backoff = {}, worker_url = null }) {
     this.url = url;
     this.on_message = on_message;
     this.on_state = on_state;
+    this.on_attempt_failed = on_attempt_failed;
     this.ping_interval = ping_interval; // ms
     this.backoff = backoff;
     this.socket = null;
     this.state = 'closed';
     this.attempt = 0; // failed attempts since the last welcome
+    this.welcomed = false; // the current socket got its welcome
     this.next_ref = 1;
     this.pings = new Map(); // ref -> performance.now() when sent
     this.rtt_ms = null;
@@ -48,6 +52,7 @@ export class Connection {
   open() {
     this.stopped = false;
     this.set_state('connecting');
+    this.welcomed = false;
     const socket = new WebSocket(this.url);
     const generation = ++this.generation;
     this.socket = socket;
@@ -93,6 +98,7 @@ export class Connection {
     const { message, snapshot } = parsed;
     if (message.type === 'welcome') {
       this.attempt = 0;
+      this.welcomed = true;
       this.set_state('connected');
       this.start_pings();
     } else if (message.type === 'pong' && this.pings.has(message.ref)) {
@@ -122,6 +128,7 @@ export class Connection {
     const delay = backoff_delay(this.attempt++, this.backoff);
     this.set_state('reconnecting', delay / 1000);
     this.retry_timer = setTimeout(() => this.open(), delay);
+    if (!this.welcomed) this.on_attempt_failed();
   }
 
   set_state(state, detail) {

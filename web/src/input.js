@@ -1,7 +1,8 @@
 // What the pointer does. A click (press and release without moving) on the floor, a wall or
 // an obstacle spawns a sphere resting on it, also when a sphere passes under the pointer at
-// that moment; a drag that starts on a sphere pushes that sphere, with an arrow showing the
-// push while dragging; any other drag orbits the camera.
+// that moment; a click on open space (a scene without walls) spawns one under the pointer,
+// as far from the camera as the scene's centre; a drag that starts on a sphere pushes that
+// sphere, with an arrow showing the push while dragging; any other drag orbits the camera.
 import * as THREE from 'three';
 import { dot, unit_wall } from './wall_geometry.js';
 
@@ -26,15 +27,17 @@ export class PointerInput {
   /**
    * view: the SceneView. settings(): {radius, density, push} from the panel.
    * on_spawn(position, radius, density), on_impulse(id, impulse, delta_v).
+   * on_nothing_spawned(why): a click that spawned nothing, and why, in words.
    * walls(): the current scene's walls. mass_of(frame, index): the body's mass in kg.
    */
-  constructor({ view, settings, walls, mass_of, on_spawn, on_impulse, label }) {
+  constructor({ view, settings, walls, mass_of, on_spawn, on_impulse, on_nothing_spawned, label }) {
     this.view = view;
     this.settings = settings;
     this.walls = walls;
     this.mass_of = mass_of;
     this.on_spawn = on_spawn;
     this.on_impulse = on_impulse;
+    this.on_nothing_spawned = on_nothing_spawned;
     this.label = label; // an element that shows the push next to the pointer
     this.press = null; // {x, y, pointer} of a press that may become a click
     this.drag = null; // {id, pointer, x, y, from_x, from_y} while pushing a sphere
@@ -97,12 +100,24 @@ export class PointerInput {
     this.click(event);
   }
 
-  /** A click: a sphere resting on the surface under the pointer, if there is one. */
+  /**
+   * A click: a sphere resting on the surface under the pointer; with no surface there (a
+   * scene without walls, or past its walls), one under the pointer on the plane through the
+   * scene's centre that faces the camera, where the scene is, rather than nothing at all.
+   */
   click(event) {
-    const hit = this.view.surface_at(event.clientX, event.clientY);
-    if (!hit) return;
     const { radius, density } = this.settings();
-    this.on_spawn(spawn_position(hit.point.toArray(), hit.normal.toArray(), radius, this.walls()), radius, density);
+    const hit = this.view.surface_at(event.clientX, event.clientY);
+    if (hit) {
+      this.on_spawn(spawn_position(hit.point.toArray(), hit.normal.toArray(), radius, this.walls()), radius, density);
+      return;
+    }
+    const point = this.view.point_facing_camera(event.clientX, event.clientY, this.view.centre);
+    if (!point) {
+      this.on_nothing_spawned('the click is on no surface, and the scene\'s centre is behind the camera');
+      return;
+    }
+    this.on_spawn(spawn_position(point.toArray(), [0, 0, 0], radius, this.walls()), radius, density);
   }
 
   cancel() {

@@ -33,6 +33,7 @@ const state = {
   room: null,
   rooms: [],
   scene: null,
+  bounds: null, // the welcome's scene.bounds: {centre, radius}
   tick: null,
   bodies: null,
   snapshots_per_second: null,
@@ -65,6 +66,7 @@ const input = new PointerInput({
   mass_of: (frame, i) => (frame.mass ? frame.mass[i] : settings.density() * (4 / 3) * Math.PI * frame.radius[i] ** 3),
   on_spawn: (position, radius, density) => send({ type: 'spawn', body: { position, radius, density } }),
   on_impulse: (id, impulse) => send({ type: 'impulse', id, impulse }),
+  on_nothing_spawned: (why) => hud.show_notice(`Nothing spawned: ${why}.`),
   label: document.getElementById('push-label'),
 });
 
@@ -120,6 +122,8 @@ function on_welcome(message) {
   state.welcomes++;
   state.room = message.room;
   state.scene = message.scene.name;
+  state.bounds = message.scene.bounds;
+  state.tick_ms = null; // until this server's pong says, in case it never does
   buffer.clear();
   const rate = message.dt * message.tick_rate; // simulated s per s
   clock = new PlaybackClock({ delay: (2 * rate) / message.snapshot_rate, rate });
@@ -146,7 +150,7 @@ function connect(room) {
   connection?.close();
   state.room = room;
   hud.set_rooms(room, state.rooms, switch_room);
-  connection = new Connection({
+  const opened = new Connection({
     url: room_url(room),
     worker_url: 'parse_worker.js',
     on_message,
@@ -154,9 +158,39 @@ function connect(room) {
       state.connection = s;
       hud.set_connection(s, detail);
     },
+    on_attempt_failed: () => check_room(opened, room),
   });
+  connection = opened;
   state.parser = connection.worker ? 'worker' : 'main thread';
   connection.open();
+}
+
+let checking_rooms = false; // a /healthz read for check_room is under way
+
+/**
+ * After a failed attempt to (re)connect to `room`: a server restarted without that room
+ * refuses the upgrade with 404, which the browser reports only as a failed WebSocket, so the
+ * page would retry forever. Reads the room list again and, when the server answers without
+ * the room, says so and joins the room it would have chosen on load.
+ */
+async function check_room(opened, room) {
+  if (checking_rooms) return;
+  checking_rooms = true;
+  const rooms = await list_rooms();
+  checking_rooms = false;
+  // No answer (the server is still down) proves nothing; nor does one for a connection the
+  // person has since left by picking another room.
+  if (!rooms.length || connection !== opened) return;
+  const changed = rooms.join('\n') !== state.rooms.join('\n');
+  state.rooms = rooms;
+  const chosen = choose_room(rooms, room);
+  if (chosen === room) {
+    // The room is there (the server is starting, say): keep trying, with the new list.
+    if (changed) hud.set_rooms(room, rooms, switch_room);
+    return;
+  }
+  hud.show_notice(`Room "${room}" is no longer on the server; the rooms are ${rooms.join(', ')}. Showing "${chosen}".`);
+  switch_room(chosen);
 }
 
 function switch_room(room) {

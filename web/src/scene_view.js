@@ -45,6 +45,7 @@ export class SceneView {
     this.static_group = new THREE.Group(); // walls and obstacles of the current scene
     this.scene.add(this.static_group);
     this.surfaces = []; // meshes a click may spawn on
+    this.centre = new THREE.Vector3(); // of the scene's bounds
 
     this.sphere_geometry = null;
     this.sphere_material = new THREE.MeshStandardMaterial({ roughness: 0.45, metalness: 0.05 });
@@ -75,6 +76,7 @@ export class SceneView {
     }
     this.surfaces = [];
     const centre = scene.bounds.centre;
+    this.centre.set(...centre);
     const radius = scene.bounds.radius > 0 ? scene.bounds.radius : 1;
     this.point_radius = radius * 0.004;
     const floor = floor_index(scene.walls);

@@ -1,6 +1,7 @@
 // End-to-end test of the page, the way a person uses it: kugel-server serves the built page
-// and two rooms, headless Chromium (WebGL through SwiftShader) opens it, and Playwright
-// clicks and drags. Screenshots go to --screenshots for a person to look at.
+// and two rooms (the last tests restart it with others), headless Chromium (WebGL through
+// SwiftShader) opens it, and Playwright clicks and drags. Screenshots go to --screenshots
+// for a person to look at.
 //
 //   node tests/e2e.mjs --server ../build/release/server/kugel-server \
 //       [--web-root dist] [--chromium /usr/bin/chromium] [--screenshots DIR]
@@ -46,14 +47,16 @@ const page_problems = []; // uncaught exceptions and console errors on the page
 
 // ---------------------------------------------------------------- the server
 
-/** Starts kugel-server with the test's rooms; resolves once it logs its port. */
-function start_server(port = 0) {
-  const args = [
-    '--port', String(port),
-    '--web-root', options['web-root'],
-    '--room', `resting=${join(web, 'tests', 'resting.json')}`,
-    '--room', `arena=${join(web, '..', 'scenes', 'arena.json')}`,
-  ];
+const scene_files = {
+  resting: join(web, 'tests', 'resting.json'),
+  arena: join(web, '..', 'scenes', 'arena.json'),
+  open: join(web, 'tests', 'open.json'), // no walls: nothing for a click to land on
+};
+
+/** Starts kugel-server with rooms (room name -> scene file); resolves once it logs its port. */
+function start_server(port = 0, rooms = { resting: scene_files.resting, arena: scene_files.arena }) {
+  const args = ['--port', String(port), '--web-root', options['web-root']];
+  for (const [name, file] of Object.entries(rooms)) args.push('--room', `${name}=${file}`);
   const child = spawn(options.server, args, { stdio: ['ignore', 'ignore', 'pipe'] });
   const started = { process: child, port: null, log: '' };
   return new Promise((resolve_start, reject) => {
@@ -205,7 +208,7 @@ before(async () => {
   page = await browser.newPage({ viewport });
   page.on('pageerror', (error) => page_problems.push(`uncaught: ${error.message}`));
   page.on('console', (message) => {
-    if (message.type() === 'error') page_problems.push(`console: ${message.text()}`);
+    if (message.type() === 'error') page_problems.push(`console: ${message.text()} (${message.location().url})`);
   });
 });
 
@@ -229,8 +232,30 @@ test('the page loads, connects and shows the world in its HUD: bodies and an adv
   assert.deepEqual(s.rooms, ['arena', 'resting']);
   assert.equal(s.parser, 'worker', 'snapshots are parsed off the main thread');
   await wait_for('a round trip time in the HUD', () => /ms$/.test(document.getElementById('hud-rtt').textContent));
-  assert.equal(await page.locator('#hud-tick-time').textContent(), 'n/a', 'the server reports no tick time yet');
   assert.ok(await page.locator('#room-picker').isVisible(), 'a room picker when the server hosts several rooms');
+});
+
+test('the HUD shows the server\'s tick time, which its pongs carry', async () => {
+  // What the server answers a ping, read on a socket of the test's own: if the HUD shows no
+  // tick time, this says whether the server sent none or the page did not show it.
+  await open_socket('pong', 'arena');
+  const pong = await page.evaluate((seconds) => new Promise((resolve_pong) => {
+    const { ws } = window.test_sockets.pong;
+    setTimeout(() => resolve_pong(null), seconds * 1000);
+    ws.onmessage = (event) => {
+      const message = JSON.parse(event.data);
+      if (message.type === 'pong') resolve_pong(message);
+    };
+    ws.send(JSON.stringify({ type: 'ping', ref: 7 }));
+  }), wait_seconds);
+  await page.evaluate(() => window.test_sockets.pong.ws.close(1000));
+  assert.ok(pong, `no pong within ${wait_seconds} s`);
+  assert.equal(typeof pong.tick_ms, 'number', `the server's pong carries no tick_ms: ${JSON.stringify(pong)}`);
+  const shown = await wait_for('a number of milliseconds under "server tick" in the HUD', () => {
+    const text = document.getElementById('hud-tick-time').textContent;
+    return /^\d+(\.\d+)? ms$/.test(text) ? text : null;
+  });
+  assert.equal(typeof (await state()).tick_ms, 'number', `kugel.state.tick_ms while the HUD shows ${shown}`);
 });
 
 test('the canvas draws the scene: not blank, many colours', async () => {
@@ -348,8 +373,41 @@ test('the page reconnects by itself when the server restarts', async () => {
   assert.equal(await page.locator('#hud-connection').textContent(), 'connected');
 });
 
+test('a room the restarted server no longer hosts: the page says so and joins one it has', async () => {
+  const port = server.port;
+  assert.equal((await state()).room, 'resting');
+  await stop_server(server);
+  await wait_for('the HUD to say it is reconnecting', () => document.getElementById('hud-connection').textContent.startsWith('reconnecting'));
+  // The server comes back without "resting": it answers /ws/resting with 404.
+  server = await start_server(port, { arena: scene_files.arena, open: scene_files.open });
+  const message = page.locator('#messages .message', { hasText: 'no longer' });
+  await message.waitFor({ state: 'visible', timeout: wait_seconds * 1000 });
+  assert.match(await message.textContent(), /Room "resting" is no longer on the server; the rooms are arena, open\. Showing "arena"\./);
+  await wait_for('the page to join room "arena" instead', (kugel) => kugel.state.room === 'arena' && kugel.state.scene === 'arena' && kugel.state.connection === 'connected');
+  assert.deepEqual((await state()).rooms, ['arena', 'open']);
+  assert.equal(await page.locator('#room-picker').inputValue(), 'arena');
+  assert.match(page.url(), /\?room=arena$/);
+});
+
+test('a click on open space in a scene without walls spawns a sphere as far away as the scene\'s centre', async () => {
+  await open_room('open');
+  const { bounds, bodies } = await state();
+  // The ray through the centre's screen point meets the plane through the centre facing the
+  // camera at the centre itself, and nowhere else: a sphere there was put at the centre's depth.
+  const aim = await page.evaluate((c) => window.kugel.screen_of(...c), bounds.centre);
+  assert.equal(await page.evaluate(({ x, y }) => window.kugel.body_at(x, y), aim), null, 'a sphere is drawn where the test clicks');
+  await page.mouse.click(aim.x, aim.y);
+  const ack = await wait_for('an ack of the spawn with the new body\'s id', (kugel) => kugel.state.acks.find((a) => a.command === 'spawn' && a.id !== null));
+  const body = await wait_for(`body ${ack.id} in a snapshot`, (kugel, id) => kugel.body(id), ack.id);
+  const off = Math.hypot(...body.position.map((x, k) => x - bounds.centre[k]));
+  assert.ok(off < 0.01, `spawned at ${body.position}, ${off} m from the scene's centre ${bounds.centre}`);
+  await wait_for(`the body count to rise from ${bodies}`, (kugel, n) => kugel.state.bodies === n + 1, bodies);
+  await screenshot('open-space');
+});
+
 test('nothing went wrong on the page', () => {
-  // Chromium logs each refused connection attempt while the server restarts: expected.
-  const unexpected = page_problems.filter((p) => !/WebSocket connection to .* failed/.test(p));
+  // Chromium logs each refused connection attempt while the server restarts, and each read
+  // of the room list the page tries after one: expected.
+  const unexpected = page_problems.filter((p) => !/WebSocket connection to .* failed/.test(p) && !/Failed to load resource: net::ERR_CONNECTION_REFUSED \(.*\/healthz\)$/.test(p));
   assert.deepEqual(unexpected, []);
 });
