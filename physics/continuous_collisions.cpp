@@ -14,6 +14,7 @@
 #include <cmath>
 #include <limits>
 #include <queue>
+#include <unordered_map>
 #include <vector>
 
 namespace kugel::physics {
@@ -80,12 +81,15 @@ std::optional<double> advance_to_contact(double limit, double tolerance, Gap gap
 
 /// The swept boxes of this step's paths, for finding who a changed path may meet. Each box
 /// at the start of the step is filed under the grid cell of its centre (cells at least as
-/// large as the box, so a query looks one cell further); a box larger than a cell, and every
-/// path that changes during the step, goes to a short list that queries scan, one entry per
-/// body: a body's new path replaces its old entry there (a body changing its path at every
-/// event must not grow the list, or a step of many events costs their square). Nothing is
-/// removed from the cells, so a query sees a superset of the current paths, which the caller
-/// checks exactly.
+/// large as the box, so a query looks one cell further). Every path that changes during the
+/// step is filed in each cell its new box overlaps (a few), as event-driven codes file each
+/// change where it happens, so that a query looks only at the changes near it: scanning a
+/// list of every change so far made a step of many events cost their square. A box over
+/// more than `most_cells` cells goes to a short list that queries scan, one entry per body.
+/// A body filed again leaves its older filings stale, and queries pass over them; the boxes
+/// at the start of the step stay, so a query sees a superset of the current paths, which the
+/// caller checks exactly. The order in which it sees them does not matter: events are ordered
+/// by time and indices alone.
 class path_grid
 {
 public:
@@ -94,6 +98,9 @@ public:
         entries_.clear();
         listed_.clear();
         listed_at_.assign(bodies, not_listed);
+        changed_head_.clear();
+        changed_.clear();
+        filing_.assign(bodies, 0);
         seen_.assign(bodies, 0);
         stamp_ = 0;
         double extent = 0.0;
@@ -102,22 +109,40 @@ public:
         cell_ = boxes.empty() ? 1.0 : std::max(2.0 * extent / static_cast<double>(boxes.size()), 1e-12);
         for (std::size_t k = 0; k < boxes.size(); ++k) {
             if (boxes[k].extent().maxCoeff() > cell_)
-                insert(members[k], boxes[k]);
+                list(members[k], boxes[k]);
             else
                 entries_.push_back({key(cell_of(boxes[k].centre())), members[k]});
         }
         std::sort(entries_.begin(), entries_.end());
+        // Each cell's run of entries, found by a hash of its key: a binary search of every
+        // entry for each of a query's 27 cells was most of a step of a gas.
+        runs_.clear();
+        for (std::uint32_t k = 0; k < entries_.size();) {
+            std::uint32_t end = k + 1;
+            while (end < entries_.size() && entries_[end].key == entries_[k].key)
+                ++end;
+            runs_.emplace(entries_[k].key, std::pair{k, end});
+            k = end;
+        }
     }
 
-    /// Files `box` as body's current box in the list, replacing the one it had there.
+    /// Files `box` as body's current box: in the cells it overlaps, or in the list of large
+    /// boxes, replacing the one it had there.
     void insert(std::uint32_t body, aabb const& box)
     {
-        if (listed_at_[body] == not_listed) {
-            listed_at_[body] = static_cast<std::uint32_t>(listed_.size());
-            listed_.push_back({body, box});
-        } else {
-            listed_[listed_at_[body]].second = box;
-        }
+        auto const lo = cell_of(box.min), hi = cell_of(box.max);
+        std::int64_t const cells = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
+        if (cells <= 0 || cells > most_cells)
+            return list(body, box);
+        std::uint32_t const filing = ++filing_[body]; // its earlier filings are stale now
+        for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+            for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+                for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+                    auto const [at, fresh] = changed_head_.try_emplace(key({x, y, z}), no_change);
+                    changed_.push_back({body, filing, at->second});
+                    at->second = static_cast<std::uint32_t>(changed_.size() - 1);
+                    (void)fresh;
+                }
     }
 
     /// Calls f(j) once for every body that may have had a box overlapping `box`.
@@ -135,6 +160,33 @@ public:
             if (overlaps(box, listed_box))
                 visit(j);
         auto const lo = cell_of(box.min), hi = cell_of(box.max);
+        // The changes: a box that overlaps this one shares a cell with it.
+        std::int64_t const own = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
+        if (own <= 0 || own > static_cast<std::int64_t>(changed_.size())) {
+            for (auto const& filed : changed_)
+                if (filed.filing == filing_[filed.body])
+                    visit(filed.body);
+        } else {
+            for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
+                for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
+                    for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
+                        auto const at = changed_head_.find(key({x, y, z}));
+                        if (at == changed_head_.end())
+                            continue;
+                        // Stale filings are unlinked on the way, so that a cell's chain
+                        // holds about one filing per body there, however often they change.
+                        for (std::uint32_t* link = &at->second; *link != no_change;) {
+                            filed_change const& filed = changed_[*link];
+                            if (filed.filing != filing_[filed.body]) {
+                                *link = filed.next;
+                                continue;
+                            }
+                            visit(filed.body);
+                            link = &changed_[*link].next;
+                        }
+                    }
+        }
+        // The boxes at the start of the step, filed by centre: one cell further.
         std::int64_t const cells = (hi[0] - lo[0] + 3) * (hi[1] - lo[1] + 3) * (hi[2] - lo[2] + 3);
         if (cells > static_cast<std::int64_t>(entries_.size()) || cells <= 0) {
             for (auto const& filed : entries_)
@@ -144,10 +196,11 @@ public:
         for (std::int64_t x = lo[0] - 1; x <= hi[0] + 1; ++x)
             for (std::int64_t y = lo[1] - 1; y <= hi[1] + 1; ++y)
                 for (std::int64_t z = lo[2] - 1; z <= hi[2] + 1; ++z) {
-                    std::uint64_t const k = key({x, y, z});
-                    auto it = std::lower_bound(entries_.begin(), entries_.end(), entry{k, 0});
-                    for (; it != entries_.end() && it->key == k; ++it)
-                        visit(it->body);
+                    auto const run = runs_.find(key({x, y, z}));
+                    if (run == runs_.end())
+                        continue;
+                    for (std::uint32_t k = run->second.first; k < run->second.second; ++k)
+                        visit(entries_[k].body);
                 }
     }
 
@@ -158,6 +211,24 @@ private:
         std::uint32_t body;
         friend auto operator<=>(entry const&, entry const&) = default;
     };
+    /// A changed path filed in one cell: the cell's changes are a chain, newest first.
+    struct filed_change
+    {
+        std::uint32_t body;
+        std::uint32_t filing; ///< which of the body's filings: stale once it is filed again
+        std::uint32_t next;   ///< the cell's change before it, or no_change
+    };
+
+    /// Files `box` in the list of large boxes, replacing body's entry there.
+    void list(std::uint32_t body, aabb const& box)
+    {
+        if (listed_at_[body] == not_listed) {
+            listed_at_[body] = static_cast<std::uint32_t>(listed_.size());
+            listed_.push_back({body, box});
+        } else {
+            listed_[listed_at_[body]].second = box;
+        }
+    }
 
     std::array<std::int64_t, 3> cell_of(vec3 const& p) const
     {
@@ -175,11 +246,18 @@ private:
         return (bits(c[0]) << 42U) | (bits(c[1]) << 21U) | bits(c[2]);
     }
 
+    /// Cells a changed box is filed in at most; a box of about the mean size overlaps up to 8.
+    static constexpr std::int64_t most_cells = 27;
     double cell_ = 1.0;
     std::vector<entry> entries_;
+    std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> runs_; ///< [begin, end) by key
     static constexpr std::uint32_t not_listed = 0xffffffffU;
+    static constexpr std::uint32_t no_change = 0xffffffffU;
     std::vector<std::pair<std::uint32_t, aabb>> listed_;
     std::vector<std::uint32_t> listed_at_; ///< per body: its place in listed_, or not_listed
+    std::unordered_map<std::uint64_t, std::uint32_t> changed_head_; ///< cell key: its newest change
+    std::vector<filed_change> changed_;
+    std::vector<std::uint32_t> filing_; ///< per body: its latest filing in the cells
     std::vector<std::uint32_t> seen_;
     std::uint32_t stamp_ = 0;
 };
