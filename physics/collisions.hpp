@@ -111,6 +111,7 @@ public:
     std::vector<std::uint32_t> members; ///< body slot of each box
     std::vector<box_pair> pairs;
     std::vector<body_path> paths;        ///< each body's path in this step
+    std::vector<aabb> path_box;          ///< by body: its path's swept box, from when it last changed
     std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
     std::vector<std::uint32_t> version;  ///< bumped when a path changes
     std::vector<std::uint64_t> events_of; ///< events each body took part in

@@ -316,6 +316,7 @@ private:
     {
         std::size_t const n = b_.x.size();
         ws_.paths.resize(n);
+        ws_.path_box.resize(n);
         ws_.free_acceleration.resize(n);
         ws_.version.assign(n, 0);
         ws_.events_of.assign(n, 0);
@@ -330,6 +331,7 @@ private:
             ws_.free_acceleration[i] = a;
             ws_.members.push_back(static_cast<std::uint32_t>(i));
             ws_.boxes.push_back(ws_.paths[i].swept_box(h_, b_.radius[i]));
+            ws_.path_box[i] = ws_.boxes.back();
         }
     }
 
@@ -354,10 +356,14 @@ private:
             grid_ready_ = true;
         }
         grid_.insert(i, swept);
+        ws_.path_box[i] = swept;
+        // j's box from when its path last changed holds its box from now on: a candidate
+        // whose path cannot meet this one's is passed over without sweeping its path again
+        // (predict_pair decides exactly for the rest).
         grid_.for_each_near(swept, [&](std::uint32_t j) {
             if (j == i || (!is_dynamic(i) && !is_dynamic(j)))
                 return;
-            if (overlaps(swept, path_from(j, now).swept_box(h_, b_.radius[j])))
+            if (overlaps(swept, ws_.path_box[j]))
                 predict_pair(i, j, now);
         });
     }
