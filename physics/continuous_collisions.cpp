@@ -11,10 +11,10 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
 #include <cmath>
 #include <limits>
 #include <queue>
-#include <unordered_map>
 #include <vector>
 
 namespace kugel::physics {
@@ -79,6 +79,78 @@ std::optional<double> advance_to_contact(double limit, double tolerance, Gap gap
     return t; // not converged: a checkpoint; the event re-predicts from there
 }
 
+/// Cell key -> value by open addressing: linear probing in a power-of-two table at most half
+/// full. The cells of a prediction are looked up 27 at a time, where std::unordered_map
+/// chased a node for each. Keys are at most 63 bits (path_grid::key), so ~0 marks a free slot.
+template <class V>
+class cell_map
+{
+public:
+    void clear()
+    {
+        std::fill(keys_.begin(), keys_.end(), free_slot);
+        count_ = 0;
+    }
+
+    V* find(std::uint64_t key)
+    {
+        if (keys_.empty())
+            return nullptr;
+        for (std::size_t i = slot_of(key);; i = (i + 1) & mask_) {
+            if (keys_[i] == key)
+                return &values_[i];
+            if (keys_[i] == free_slot)
+                return nullptr;
+        }
+    }
+
+    /// The value under key, put there as `value` when the key is new.
+    V& find_or_put(std::uint64_t key, V const& value)
+    {
+        if (2 * (count_ + 1) > keys_.size())
+            grow();
+        for (std::size_t i = slot_of(key);; i = (i + 1) & mask_) {
+            if (keys_[i] == key)
+                return values_[i];
+            if (keys_[i] == free_slot) {
+                keys_[i] = key;
+                values_[i] = value;
+                ++count_;
+                return values_[i];
+            }
+        }
+    }
+
+private:
+    static constexpr std::uint64_t free_slot = ~std::uint64_t{0};
+
+    std::size_t slot_of(std::uint64_t key) const
+    {
+        return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> shift_) & mask_;
+    }
+
+    void grow()
+    {
+        std::vector<std::uint64_t> old_keys = std::move(keys_);
+        std::vector<V> old_values = std::move(values_);
+        std::size_t const size = std::max<std::size_t>(64, 2 * old_keys.size());
+        keys_.assign(size, free_slot);
+        values_.assign(size, V{});
+        mask_ = size - 1;
+        shift_ = 64U - static_cast<unsigned>(std::countr_zero(size));
+        count_ = 0;
+        for (std::size_t i = 0; i < old_keys.size(); ++i)
+            if (old_keys[i] != free_slot)
+                find_or_put(old_keys[i], old_values[i]);
+    }
+
+    std::vector<std::uint64_t> keys_;
+    std::vector<V> values_;
+    std::size_t mask_ = 0;
+    unsigned shift_ = 64;
+    std::size_t count_ = 0;
+};
+
 /// The swept boxes of this step's paths, for finding who a changed path may meet. Each box
 /// at the start of the step is filed under the grid cell of its centre (cells at least as
 /// large as the box, so a query looks one cell further). Every path that changes during the
@@ -96,6 +168,7 @@ public:
     void reset(std::span<aabb const> boxes, std::span<std::uint32_t const> members, std::size_t bodies)
     {
         entries_.clear();
+        start_head_.clear();
         listed_.clear();
         listed_at_.assign(bodies, not_listed);
         changed_head_.clear();
@@ -108,21 +181,15 @@ public:
             extent += box.extent().maxCoeff();
         cell_ = boxes.empty() ? 1.0 : std::max(2.0 * extent / static_cast<double>(boxes.size()), 1e-12);
         for (std::size_t k = 0; k < boxes.size(); ++k) {
-            if (boxes[k].extent().maxCoeff() > cell_)
+            if (boxes[k].extent().maxCoeff() > cell_) {
                 list(members[k], boxes[k]);
-            else
-                entries_.push_back({key(cell_of(boxes[k].centre())), members[k]});
-        }
-        std::sort(entries_.begin(), entries_.end());
-        // Each cell's run of entries, found by a hash of its key: a binary search of every
-        // entry for each of a query's 27 cells was most of a step of a gas.
-        runs_.clear();
-        for (std::uint32_t k = 0; k < entries_.size();) {
-            std::uint32_t end = k + 1;
-            while (end < entries_.size() && entries_[end].key == entries_[k].key)
-                ++end;
-            runs_.emplace(entries_[k].key, std::pair{k, end});
-            k = end;
+                continue;
+            }
+            // Each cell's entries are a chain found by a hash of its key: sorting them and a
+            // binary search for each of a query's 27 cells were most of a step of a gas.
+            std::uint32_t& head = start_head_.find_or_put(key(cell_of(boxes[k].centre())), no_change);
+            entries_.push_back({members[k], head});
+            head = static_cast<std::uint32_t>(entries_.size() - 1);
         }
     }
 
@@ -138,10 +205,9 @@ public:
         for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
             for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
                 for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-                    auto const [at, fresh] = changed_head_.try_emplace(key({x, y, z}), no_change);
-                    changed_.push_back({body, filing, at->second});
-                    at->second = static_cast<std::uint32_t>(changed_.size() - 1);
-                    (void)fresh;
+                    std::uint32_t& head = changed_head_.find_or_put(key({x, y, z}), no_change);
+                    changed_.push_back({body, filing, head});
+                    head = static_cast<std::uint32_t>(changed_.size() - 1);
                 }
     }
 
@@ -170,12 +236,12 @@ public:
             for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
                 for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
                     for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-                        auto const at = changed_head_.find(key({x, y, z}));
-                        if (at == changed_head_.end())
+                        std::uint32_t* const head = changed_head_.find(key({x, y, z}));
+                        if (!head)
                             continue;
                         // Stale filings are unlinked on the way, so that a cell's chain
                         // holds about one filing per body there, however often they change.
-                        for (std::uint32_t* link = &at->second; *link != no_change;) {
+                        for (std::uint32_t* link = head; *link != no_change;) {
                             filed_change const& filed = changed_[*link];
                             if (filed.filing != filing_[filed.body]) {
                                 *link = filed.next;
@@ -196,20 +262,18 @@ public:
         for (std::int64_t x = lo[0] - 1; x <= hi[0] + 1; ++x)
             for (std::int64_t y = lo[1] - 1; y <= hi[1] + 1; ++y)
                 for (std::int64_t z = lo[2] - 1; z <= hi[2] + 1; ++z) {
-                    auto const run = runs_.find(key({x, y, z}));
-                    if (run == runs_.end())
-                        continue;
-                    for (std::uint32_t k = run->second.first; k < run->second.second; ++k)
+                    std::uint32_t const* const head = start_head_.find(key({x, y, z}));
+                    for (std::uint32_t k = head ? *head : no_change; k != no_change; k = entries_[k].next)
                         visit(entries_[k].body);
                 }
     }
 
 private:
+    /// A box at the start of the step, in its cell's chain.
     struct entry
     {
-        std::uint64_t key;
         std::uint32_t body;
-        friend auto operator<=>(entry const&, entry const&) = default;
+        std::uint32_t next; ///< the cell's entry before it, or no_change
     };
     /// A changed path filed in one cell: the cell's changes are a chain, newest first.
     struct filed_change
@@ -250,12 +314,12 @@ private:
     static constexpr std::int64_t most_cells = 27;
     double cell_ = 1.0;
     std::vector<entry> entries_;
-    std::unordered_map<std::uint64_t, std::pair<std::uint32_t, std::uint32_t>> runs_; ///< [begin, end) by key
+    cell_map<std::uint32_t> start_head_; ///< cell key: its last entry
     static constexpr std::uint32_t not_listed = 0xffffffffU;
     static constexpr std::uint32_t no_change = 0xffffffffU;
     std::vector<std::pair<std::uint32_t, aabb>> listed_;
     std::vector<std::uint32_t> listed_at_; ///< per body: its place in listed_, or not_listed
-    std::unordered_map<std::uint64_t, std::uint32_t> changed_head_; ///< cell key: its newest change
+    cell_map<std::uint32_t> changed_head_; ///< cell key: its newest change
     std::vector<filed_change> changed_;
     std::vector<std::uint32_t> filing_; ///< per body: its latest filing in the cells
     std::vector<std::uint32_t> seen_;
