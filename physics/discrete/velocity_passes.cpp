@@ -132,18 +132,18 @@ void order_support(discrete_workspace& ws)
     });
 }
 
-/// Support, passed up a pile in one pass: each sphere in order of
-/// depth along gravity (the deepest first) is stopped against the spheres it rests on as if
-/// they were immovable (shock propagation, Guendelman, Bridson and Fedkiw 2003), those of them
-/// that are supported: that are static, touch a wall their acceleration presses them into, or
-/// rest on a sphere that is supported. A sphere in the hollow of three or four below is stopped against
-/// each in turn, a few times over, as stopping it against one can leave it closing on
-/// another. The passes before leave momentum exchanged; this pass leaves no contact of a pile
+/// Support, passed up a pile in one pass: each sphere in order of depth along gravity (the
+/// deepest first) is stopped against the spheres it rests on as if they were immovable (shock
+/// propagation, Guendelman, Bridson and Fedkiw 2003), those of them that are supported: that
+/// are static, touch a wall their acceleration presses them into, or rest on a sphere that is
+/// supported. A sphere in the hollow of three or four below is stopped against all of them
+/// together (below), as stopping it against one in turn left it closing on another or pushed
+/// it up and off. The passes before leave momentum exchanged; this pass leaves no contact of a pile
 /// closing, whatever its height, where Gauss–Seidel passes would need about as many passes as
 /// the pile has layers. Spheres that nothing static carries (a cluster in free fall, two
 /// planets that meet) are left as the passes left them, their momentum kept. One sequential
-/// pass: the order is the pile's, not the slabs'. Friction acts at each stop, by Coulomb's law
-/// (apply_sphere_friction), so a sphere on a slope shallower than atan μ stays.
+/// pass: the order is the pile's, not the slabs'. Friction acts at each stop by Coulomb's law,
+/// within μ times the stop's normal change, so a sphere on a slope shallower than atan μ stays.
 ///
 /// It runs twice. First, before the momentum-exchange passes, on the resting contacts alone
 /// (`resting_only`: those that would not bounce by the rest threshold of the upper sphere's
@@ -171,7 +171,8 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
     // One sphere against its supports, held still: projected Gauss–Seidel on its own velocity,
     // each stop's normal change and friction summed over the sweeps (so a later sweep can take
     // back what an earlier one gave too much of: summed normal change >= 0, friction within
-    // μ times it), until a sweep changes less than 2^-30 of one step's acceleration.
+    // μ times it), until no sweep changes the velocity by more than 2^-20 of one step's
+    // acceleration, or for at most 16 sweeps.
     constexpr int most_sweeps = 16;
     auto& moving = ws.moving;
     auto& stops = ws.support_stops;
@@ -238,11 +239,12 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
 // respond_to_sphere_contact), and a sphere moving into a wall it touches meets it by the
 // wall's rule; repeated, so a stack passes its weight down to the floor within the step
 // instead of sinking into itself. A pass that changed no velocity leaves the next one the
-// same state: the passes stop there. With forces, support is then passed up each pile
-// (propagate_support), and each sphere the contacts changed moves as it would have with the
-// velocity they leave it: free motion had moved it with its velocity before them, so a
-// sphere resting on another sank by a·h² every step, to be pushed out again by the position
-// passes. Without forces nothing sinks, and an elastic gas keeps its bits.
+// same state: the passes stop there. With forces, support is passed up each pile before them
+// over the resting contacts and after them over all (propagate_support), and each sphere the
+// contacts changed moves as it would have with the velocity they leave it: free motion had
+// moved it with its velocity before them, so a sphere resting on another sank by a·h² every
+// step, to be pushed out again by the position passes. Without forces nothing sinks, and an
+// elastic gas keeps its bits.
 void velocity_passes(step_context const& step, free_accelerations free_a, discrete_workspace& ws)
 {
     copy_contact_spheres(step, free_a, ws);
