@@ -198,17 +198,15 @@ public:
     void insert(std::uint32_t body, aabb const& box)
     {
         auto const lo = cell_of(box.min), hi = cell_of(box.max);
-        std::int64_t const cells = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
+        std::int64_t const cells = cell_count(lo, hi, 0);
         if (cells <= 0 || cells > most_cells)
             return list(body, box);
         std::uint32_t const filing = ++filing_[body]; // its earlier filings are stale now
-        for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
-            for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
-                for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-                    std::uint32_t& head = changed_head_.find_or_put(key({x, y, z}), no_change);
-                    changed_.push_back({body, filing, head});
-                    head = static_cast<std::uint32_t>(changed_.size() - 1);
-                }
+        for_each_cell(lo, hi, 0, [&](std::uint64_t k) {
+            std::uint32_t& head = changed_head_.find_or_put(k, no_change);
+            changed_.push_back({body, filing, head});
+            head = static_cast<std::uint32_t>(changed_.size() - 1);
+        });
     }
 
     /// Calls f(j) once for every body that may have had a box overlapping `box`.
@@ -227,45 +225,39 @@ public:
                 visit(j);
         auto const lo = cell_of(box.min), hi = cell_of(box.max);
         // The changes: a box that overlaps this one shares a cell with it.
-        std::int64_t const own = (hi[0] - lo[0] + 1) * (hi[1] - lo[1] + 1) * (hi[2] - lo[2] + 1);
+        std::int64_t const own = cell_count(lo, hi, 0);
         if (own <= 0 || own > static_cast<std::int64_t>(changed_.size())) {
             for (auto const& filed : changed_)
                 if (filed.filing == filing_[filed.body])
                     visit(filed.body);
         } else {
-            for (std::int64_t x = lo[0]; x <= hi[0]; ++x)
-                for (std::int64_t y = lo[1]; y <= hi[1]; ++y)
-                    for (std::int64_t z = lo[2]; z <= hi[2]; ++z) {
-                        std::uint32_t* const head = changed_head_.find(key({x, y, z}));
-                        if (!head)
-                            continue;
-                        // Stale filings are unlinked on the way, so that a cell's chain
-                        // holds about one filing per body there, however often they change.
-                        for (std::uint32_t* link = head; *link != no_change;) {
-                            filed_change const& filed = changed_[*link];
-                            if (filed.filing != filing_[filed.body]) {
-                                *link = filed.next;
-                                continue;
-                            }
-                            visit(filed.body);
-                            link = &changed_[*link].next;
-                        }
+            for_each_cell(lo, hi, 0, [&](std::uint64_t k) {
+                std::uint32_t* const head = changed_head_.find(k);
+                // Stale filings are unlinked on the way, so that a cell's chain holds about
+                // one filing per body there, however often they change.
+                for (std::uint32_t* link = head; link && *link != no_change;) {
+                    filed_change const& filed = changed_[*link];
+                    if (filed.filing != filing_[filed.body]) {
+                        *link = filed.next;
+                        continue;
                     }
+                    visit(filed.body);
+                    link = &changed_[*link].next;
+                }
+            });
         }
         // The boxes at the start of the step, filed by centre: one cell further.
-        std::int64_t const cells = (hi[0] - lo[0] + 3) * (hi[1] - lo[1] + 3) * (hi[2] - lo[2] + 3);
+        std::int64_t const cells = cell_count(lo, hi, 1);
         if (cells > static_cast<std::int64_t>(entries_.size()) || cells <= 0) {
             for (auto const& filed : entries_)
                 visit(filed.body);
             return;
         }
-        for (std::int64_t x = lo[0] - 1; x <= hi[0] + 1; ++x)
-            for (std::int64_t y = lo[1] - 1; y <= hi[1] + 1; ++y)
-                for (std::int64_t z = lo[2] - 1; z <= hi[2] + 1; ++z) {
-                    std::uint32_t const* const head = start_head_.find(key({x, y, z}));
-                    for (std::uint32_t k = head ? *head : no_change; k != no_change; k = entries_[k].next)
-                        visit(entries_[k].body);
-                }
+        for_each_cell(lo, hi, 1, [&](std::uint64_t k) {
+            std::uint32_t const* const head = start_head_.find(k);
+            for (std::uint32_t e = head ? *head : no_change; e != no_change; e = entries_[e].next)
+                visit(entries_[e].body);
+        });
     }
 
 private:
@@ -301,6 +293,24 @@ private:
             c[static_cast<std::size_t>(axis)] = static_cast<std::int64_t>(
                 std::clamp(std::floor(p[axis] / cell_), -1099511627776.0, 1099511627776.0));
         return c;
+    }
+
+    using cell = std::array<std::int64_t, 3>;
+
+    /// Cells from lo to hi, widened by `more` on every side (<= 0 when the count overflows).
+    static std::int64_t cell_count(cell const& lo, cell const& hi, std::int64_t more)
+    {
+        return (hi[0] - lo[0] + 1 + 2 * more) * (hi[1] - lo[1] + 1 + 2 * more) * (hi[2] - lo[2] + 1 + 2 * more);
+    }
+
+    /// Calls f(key) for each cell from lo to hi, widened by `more` on every side.
+    template <class F>
+    static void for_each_cell(cell const& lo, cell const& hi, std::int64_t more, F const& f)
+    {
+        for (std::int64_t x = lo[0] - more; x <= hi[0] + more; ++x)
+            for (std::int64_t y = lo[1] - more; y <= hi[1] + more; ++y)
+                for (std::int64_t z = lo[2] - more; z <= hi[2] + more; ++z)
+                    f(key({x, y, z}));
     }
 
     /// 21 bits per axis; cells that wrap onto the same key only add candidates.
