@@ -1,0 +1,129 @@
+// The continuous mode's event loop, pinned bit for bit on scenes that reach each of its
+// paths: a dilute gas (few events a step), a fast gas (paths many radii long), spheres of
+// very different sizes (boxes too large for the grid's cells), a uniform field (parabolas,
+// the exact time of impact), Coulomb forces (curved relative paths, conservative
+// advancement) and static spheres. The hashes were recorded with the event loop that
+// predicted against a broadphase of whole-step swept boxes; a faster loop must find the same
+// events in the same order, so any change to them is a change of results, made on purpose
+// and said so in its commit.
+
+#include "physics/diagnostics.hpp"
+#include "physics/world.hpp"
+#include "support/state_hash.hpp"
+#include "physics/collision_scenes.hpp"
+
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <memory>
+#include <random>
+
+namespace kugel::physics {
+namespace {
+
+using test_support::state_hash;
+
+struct gas_options
+{
+    int n = 1000;
+    double max_speed = 1.0;
+    double big_share = 0.0; ///< share of spheres 8 times the radius
+    bool gravity = false;
+    bool charged = false;
+    int statics = 0; ///< static spheres among the first
+    double restitution = 1.0;
+};
+
+/// n spheres of radius 0.05 m on a lattice filling 10% of a box, speeds up to max_speed in
+/// random directions, drawn from a fixed seed one statement at a time.
+world gas(gas_options const& o)
+{
+    world_settings s = colliding(collision_mode::continuous, integrator_kind::velocity_verlet);
+    s.collisions.restitution = o.restitution;
+    world w(s);
+    double const r = 0.05;
+    double const side = std::cbrt(o.n * 4.0 / 3.0 * 3.141592653589793 * r * r * r / 0.1);
+    add_box(w, side / 2);
+    if (o.gravity)
+        w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
+    if (o.charged)
+        w.add_force(std::make_unique<coulomb>(1e-3, 0.0));
+    int const per_axis = static_cast<int>(std::ceil(std::cbrt(o.n)));
+    double const spacing = side / per_axis;
+    std::mt19937_64 rng(11);
+    auto unit = [&] { return static_cast<double>(rng() >> 11U) * 0x1.0p-53; };
+    for (int i = 0; i < o.n; ++i) {
+        vec3 const cell(i % per_axis, (i / per_axis) % per_axis, i / (per_axis * per_axis));
+        vec3 const x = (cell.array() + 0.5).matrix() * spacing - vec3::Constant(side / 2);
+        double const vx = unit() - 0.5;
+        double const vy = unit() - 0.5;
+        double const vz = unit() - 0.5;
+        double const speed = o.max_speed * unit();
+        double const pick = unit();
+        vec3 const dir = vec3(vx, vy, vz).normalized();
+        bool const big = pick < o.big_share;
+        double const radius = big ? std::min(8 * r, 0.45 * spacing) : r;
+        bool const fixed = i < o.statics;
+        body_desc d{x, fixed ? vec3(vec3::Zero()) : vec3(speed * dir), 1.0 + pick, radius, 0.0, fixed};
+        if (o.charged)
+            d.charge = (i % 2 == 0 ? 1.0 : -1.0) * 1e-2;
+        w.add_body(d);
+    }
+    return w;
+}
+
+std::uint64_t pinned(gas_options const& o, int steps)
+{
+    world w = gas(o);
+    for (int i = 0; i < steps; ++i)
+        w.step(1.0 / 60.0);
+    EXPECT_EQ(w.escaped(), 0U);
+    EXPECT_GT(w.collisions().sphere_contacts, 50U); // the scene reaches the event loop
+    if (w.collisions().capped_steps == 0) { // past a cap a step finishes discretely
+        EXPECT_LE(w.max_overlap(), 1e-9);
+    }
+    return state_hash(w);
+}
+
+TEST(ContinuousEvents, DiluteGasIsPinned)
+{
+    EXPECT_EQ(pinned({}, 300), 0xe0a742c8be4595f3ULL);
+}
+
+TEST(ContinuousEvents, FastGasIsPinned)
+{
+    gas_options o;
+    o.n = 300;
+    o.max_speed = 50.0;
+    EXPECT_EQ(pinned(o, 120), 0x4ebf790147a8b558ULL);
+}
+
+TEST(ContinuousEvents, MixedSizesArePinned)
+{
+    gas_options o;
+    o.n = 500;
+    o.max_speed = 3.0;
+    o.big_share = 0.1;
+    o.statics = 20;
+    EXPECT_EQ(pinned(o, 200), 0xef7562b697bd3ef2ULL);
+}
+
+TEST(ContinuousEvents, UniformFieldIsPinned)
+{
+    gas_options o;
+    o.n = 300;
+    o.gravity = true;
+    o.restitution = 0.9;
+    EXPECT_EQ(pinned(o, 60), 0x97f49e95c5e90e7eULL);
+}
+
+TEST(ContinuousEvents, CoulombForcesArePinned)
+{
+    gas_options o;
+    o.n = 200;
+    o.charged = true;
+    EXPECT_EQ(pinned(o, 120), 0x9c878af91f8976e2ULL);
+}
+
+} // namespace
+} // namespace kugel::physics
