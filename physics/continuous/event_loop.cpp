@@ -4,10 +4,10 @@
 // predicted again. Nothing tunnels, at any speed: a contact is found from the paths, not from
 // where the bodies happen to be at the end of the step.
 
-#include "collision_rules.hpp"
-#include "collisions.hpp"
-#include "discrete/discrete_step.hpp"
-#include "time_of_impact.hpp"
+#include "physics/collision_rules.hpp"
+#include "physics/collisions.hpp"
+#include "physics/discrete/discrete_step.hpp"
+#include "physics/time_of_impact.hpp"
 
 #include <algorithm>
 #include <array>
