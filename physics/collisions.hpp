@@ -3,6 +3,7 @@
 #include "aabb.hpp"
 #include "body_path.hpp"
 #include "broadphase.hpp"
+#include "physics/continuous/workspace.hpp"
 #include "physics/discrete/workspace.hpp"
 #include "obb.hpp"
 #include "parallel_for.hpp"
@@ -104,17 +105,13 @@ struct collision_bodies
 class collision_workspace
 {
 public:
-    discrete_workspace discrete; ///< discrete mode's
-    // Continuous mode's, and max_overlap()'s broadphase:
+    discrete_workspace discrete;       ///< discrete mode's
+    continuous::workspace continuous;  ///< continuous mode's
+    // max_overlap()'s broadphase:
     broadphase_workspace broadphase;
     std::vector<aabb> boxes;
     std::vector<std::uint32_t> members; ///< body slot of each box
     std::vector<box_pair> pairs;
-    std::vector<body_path> paths;        ///< each body's path in this step
-    std::vector<aabb> path_box;          ///< by body: its path's swept box, from when it last changed
-    std::vector<vec3> free_acceleration; ///< each body's acceleration from free motion alone
-    std::vector<std::uint32_t> version;  ///< bumped when a path changes
-    std::vector<std::uint64_t> events_of; ///< events each body took part in
 };
 
 /// Resolves the contacts of one step of length h in the given mode (not `off`), timing its

@@ -2,7 +2,18 @@
 
 #include <algorithm>
 #include <array>
+#include <bit>
+#include <cstdint>
 #include <cmath>
+
+// The times of impact lean on fma, which the library computes in software where the
+// compiler may not assume the instruction; it is exactly rounded either way, so a version
+// compiled for processors that have it gives the same bits, and is chosen at load.
+#if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
+#define KUGEL_WITH_FMA_WHERE_PRESENT [[gnu::target_clones("fma", "default")]]
+#else
+#define KUGEL_WITH_FMA_WHERE_PRESENT
+#endif
 
 namespace kugel::physics {
 
@@ -46,6 +57,23 @@ double accurate_dot(std::array<double, n> const& x, std::array<double, n> const&
     return sum + error;
 }
 
+/// std::ilogb(x) for x > 0: the exponent field itself for a normal x, the library's answer
+/// for the rest (subnormal, infinite).
+int exponent_of(double x)
+{
+    auto const field = static_cast<int>((std::bit_cast<std::uint64_t>(x) >> 52U) & 0x7ffU);
+    return field != 0 && field != 0x7ff ? field - 1023 : std::ilogb(x);
+}
+
+/// std::ldexp(x, e): for e within the normal exponents, the product with 2^e, which is
+/// rounded (should it fall below the normal range) exactly as ldexp rounds, to nearest.
+double times_power_of_two(double x, int e)
+{
+    if (e < -1022 || e > 1023)
+        return std::ldexp(x, e);
+    return x * std::bit_cast<double>(static_cast<std::uint64_t>(e + 1023) << 52U);
+}
+
 std::array<double, 3> components(vec3 const& v)
 {
     return {v.x(), v.y(), v.z()};
@@ -79,6 +107,7 @@ double plane_contact_time_linear(plane const& wall, double radius, vec3 const& x
     return std::min(t_i + weight_next * (t_next - t_i), std::max(t_i, t_next));
 }
 
+KUGEL_WITH_FMA_WHERE_PRESENT
 std::optional<double> plane_time_of_impact(plane const& wall, double radius, vec3 const& x,
                                            vec3 const& v, vec3 const& a, double t_max)
 {
@@ -126,6 +155,7 @@ std::optional<double> plane_time_of_impact(plane const& wall, double radius, vec
     return entering;
 }
 
+KUGEL_WITH_FMA_WHERE_PRESENT
 std::optional<double> sphere_time_of_impact(vec3 const& x1, vec3 const& v1, double r1,
                                             vec3 const& x2, vec3 const& v2, double r2,
                                             double t_max)
@@ -140,6 +170,18 @@ std::optional<double> sphere_time_of_impact(vec3 const& x1, vec3 const& v1, doub
     double const reach = r1 + r2;
     vec3 const d = x1 - x2;
     vec3 const relative_velocity = v1 - v2;
+    // Most pairs a broadphase offers move apart, and d·v says so long before the care below
+    // is needed: computed plainly, its error is below 3u·Σ|d_k·v_k| (u = 2^-53), so a sum
+    // above 2^-50 times that is positive whatever the rounding, and so is the accurate d·v
+    // below. That one uses v scaled by a power of two, which keeps every sign and, for
+    // components between 2^-500 and 2^500 (or 0), every bit; the sum stays far from under-
+    // and overflow. Outside those ranges the careful path alone decides.
+    auto const moderate = [](double x) { return x == 0.0 || (std::abs(x) > 0x1p-500 && std::abs(x) < 0x1p500); };
+    double const magnitude = d.cwiseAbs().dot(relative_velocity.cwiseAbs());
+    if (magnitude > 0x1p-900 && magnitude < 0x1p900 && moderate(relative_velocity.x()) &&
+        moderate(relative_velocity.y()) && moderate(relative_velocity.z()) &&
+        d.dot(relative_velocity) > 0x1p-50 * magnitude)
+        return std::nullopt;
     // The time scales as 1/|v|, so it is found for v scaled by a power of two to a largest
     // component in [1, 2), then scaled back. Power-of-two scaling is exact: for ordinary
     // speeds the result is bit for bit the unscaled one. Unscaled, a relative speed below
@@ -148,8 +190,8 @@ std::optional<double> sphere_time_of_impact(vec3 const& x1, vec3 const& v1, doub
     double const largest = relative_velocity.cwiseAbs().maxCoeff();
     if (!(largest > 0.0))
         return std::nullopt; // no relative motion: no approach
-    int const exponent = std::ilogb(largest);
-    vec3 const v = relative_velocity.unaryExpr([&](double x) { return std::ldexp(x, -exponent); });
+    int const exponent = exponent_of(largest);
+    vec3 const v = relative_velocity.unaryExpr([&](double x) { return times_power_of_two(x, -exponent); });
     double const b = accurate_dot<3>(components(d), components(v)); // d·v
     // Lecture: no hit when (x₂ − x₁)·v₁ < 0; also none for b = 0 (no approach).
     if (!(b < 0.0))
@@ -186,7 +228,7 @@ std::optional<double> sphere_time_of_impact(vec3 const& x1, vec3 const& v1, doub
     //   t = c / (−b + √(b² − a c)),
     // whose denominator is a sum of two non-negative terms (b < 0), so it never cancels, and
     // never divides by a.
-    double const t = std::ldexp(c / (-b + std::sqrt(discriminant)), -exponent);
+    double const t = times_power_of_two(c / (-b + std::sqrt(discriminant)), -exponent);
     if (!(t <= t_max) || !std::isfinite(t))
         return std::nullopt;
     return t;

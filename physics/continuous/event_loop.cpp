@@ -14,37 +14,13 @@
 #include <bit>
 #include <cmath>
 #include <limits>
-#include <queue>
+#include <functional>
 #include <vector>
 
 namespace kugel::physics {
 
 
 namespace {
-
-enum class event_kind : std::uint8_t { pair, wall, obstacle };
-
-struct event
-{
-    double time;
-    event_kind kind;
-    std::uint32_t body;
-    std::uint32_t other; ///< body, wall or obstacle index
-    std::uint32_t body_version;
-    std::uint32_t other_version; ///< for pairs
-
-    /// Earliest first; ties broken by kind and indices so the order never depends on the heap.
-    friend bool operator>(event const& l, event const& r)
-    {
-        if (l.time != r.time)
-            return l.time > r.time;
-        if (l.kind != r.kind)
-            return l.kind > r.kind;
-        if (l.body != r.body)
-            return l.body > r.body;
-        return l.other > r.other;
-    }
-};
 
 /// Relative gap below which two surfaces count as touching (and above which an event is only
 /// a checkpoint on the way): 1e-9 of the contact distance, far above rounding in positions
@@ -79,290 +55,71 @@ std::optional<double> advance_to_contact(double limit, double tolerance, Gap gap
     return t; // not converged: a checkpoint; the event re-predicts from there
 }
 
-/// Cell key -> value by open addressing: linear probing in a power-of-two table at most half
-/// full. The cells of a prediction are looked up 27 at a time, where std::unordered_map
-/// chased a node for each. Keys are at most 63 bits (path_grid::key), so ~0 marks a free slot.
-template <class V>
-class cell_map
-{
-public:
-    void clear()
-    {
-        std::fill(keys_.begin(), keys_.end(), free_slot);
-        count_ = 0;
-    }
-
-    V* find(std::uint64_t key)
-    {
-        if (keys_.empty())
-            return nullptr;
-        for (std::size_t i = slot_of(key);; i = (i + 1) & mask_) {
-            if (keys_[i] == key)
-                return &values_[i];
-            if (keys_[i] == free_slot)
-                return nullptr;
-        }
-    }
-
-    /// The value under key, put there as `value` when the key is new.
-    V& find_or_put(std::uint64_t key, V const& value)
-    {
-        if (2 * (count_ + 1) > keys_.size())
-            grow();
-        for (std::size_t i = slot_of(key);; i = (i + 1) & mask_) {
-            if (keys_[i] == key)
-                return values_[i];
-            if (keys_[i] == free_slot) {
-                keys_[i] = key;
-                values_[i] = value;
-                ++count_;
-                return values_[i];
-            }
-        }
-    }
-
-private:
-    static constexpr std::uint64_t free_slot = ~std::uint64_t{0};
-
-    std::size_t slot_of(std::uint64_t key) const
-    {
-        return static_cast<std::size_t>((key * 0x9E3779B97F4A7C15ULL) >> shift_) & mask_;
-    }
-
-    void grow()
-    {
-        std::vector<std::uint64_t> old_keys = std::move(keys_);
-        std::vector<V> old_values = std::move(values_);
-        std::size_t const size = std::max<std::size_t>(64, 2 * old_keys.size());
-        keys_.assign(size, free_slot);
-        values_.assign(size, V{});
-        mask_ = size - 1;
-        shift_ = 64U - static_cast<unsigned>(std::countr_zero(size));
-        count_ = 0;
-        for (std::size_t i = 0; i < old_keys.size(); ++i)
-            if (old_keys[i] != free_slot)
-                find_or_put(old_keys[i], old_values[i]);
-    }
-
-    std::vector<std::uint64_t> keys_;
-    std::vector<V> values_;
-    std::size_t mask_ = 0;
-    unsigned shift_ = 64;
-    std::size_t count_ = 0;
-};
-
-/// The swept boxes of this step's paths, for finding who a changed path may meet. Each box
-/// at the start of the step is filed under the grid cell of its centre (cells at least as
-/// large as the box, so a query looks one cell further). Every path that changes during the
-/// step is filed in each cell its new box overlaps (a few), as event-driven codes file each
-/// change where it happens, so that a query looks only at the changes near it: scanning a
-/// list of every change so far made a step of many events cost their square. A box over
-/// more than `most_cells` cells goes to a short list that queries scan, one entry per body.
-/// A body filed again leaves its older filings stale, and queries pass over them; the boxes
-/// at the start of the step stay, so a query sees a superset of the current paths, which the
-/// caller checks exactly. The order in which it sees them does not matter: events are ordered
-/// by time and indices alone.
-class path_grid
-{
-public:
-    void reset(std::span<aabb const> boxes, std::span<std::uint32_t const> members, std::size_t bodies)
-    {
-        entries_.clear();
-        start_head_.clear();
-        listed_.clear();
-        listed_at_.assign(bodies, not_listed);
-        changed_head_.clear();
-        changed_.clear();
-        filing_.assign(bodies, 0);
-        seen_.assign(bodies, 0);
-        stamp_ = 0;
-        double extent = 0.0;
-        for (aabb const& box : boxes)
-            extent += box.extent().maxCoeff();
-        cell_ = boxes.empty() ? 1.0 : std::max(2.0 * extent / static_cast<double>(boxes.size()), 1e-12);
-        for (std::size_t k = 0; k < boxes.size(); ++k) {
-            if (boxes[k].extent().maxCoeff() > cell_) {
-                list(members[k], boxes[k]);
-                continue;
-            }
-            // Each cell's entries are a chain found by a hash of its key: sorting them and a
-            // binary search for each of a query's 27 cells were most of a step of a gas.
-            std::uint32_t& head = start_head_.find_or_put(key(cell_of(boxes[k].centre())), no_change);
-            entries_.push_back({members[k], head});
-            head = static_cast<std::uint32_t>(entries_.size() - 1);
-        }
-    }
-
-    /// Files `box` as body's current box: in the cells it overlaps, or in the list of large
-    /// boxes, replacing the one it had there.
-    void insert(std::uint32_t body, aabb const& box)
-    {
-        auto const lo = cell_of(box.min), hi = cell_of(box.max);
-        std::int64_t const cells = cell_count(lo, hi, 0);
-        if (cells <= 0 || cells > most_cells)
-            return list(body, box);
-        std::uint32_t const filing = ++filing_[body]; // its earlier filings are stale now
-        for_each_cell(lo, hi, 0, [&](std::uint64_t k) {
-            std::uint32_t& head = changed_head_.find_or_put(k, no_change);
-            changed_.push_back({body, filing, head});
-            head = static_cast<std::uint32_t>(changed_.size() - 1);
-        });
-    }
-
-    /// Calls f(j) once for every body that may have had a box overlapping `box`.
-    template <class F>
-    void for_each_near(aabb const& box, F f)
-    {
-        ++stamp_;
-        auto visit = [&](std::uint32_t j) {
-            if (seen_[j] != stamp_) {
-                seen_[j] = stamp_;
-                f(j);
-            }
-        };
-        for (auto const& [j, listed_box] : listed_)
-            if (overlaps(box, listed_box))
-                visit(j);
-        auto const lo = cell_of(box.min), hi = cell_of(box.max);
-        // The changes: a box that overlaps this one shares a cell with it.
-        std::int64_t const own = cell_count(lo, hi, 0);
-        if (own <= 0 || own > static_cast<std::int64_t>(changed_.size())) {
-            for (auto const& filed : changed_)
-                if (filed.filing == filing_[filed.body])
-                    visit(filed.body);
-        } else {
-            for_each_cell(lo, hi, 0, [&](std::uint64_t k) {
-                std::uint32_t* const head = changed_head_.find(k);
-                // Stale filings are unlinked on the way, so that a cell's chain holds about
-                // one filing per body there, however often they change.
-                for (std::uint32_t* link = head; link && *link != no_change;) {
-                    filed_change const& filed = changed_[*link];
-                    if (filed.filing != filing_[filed.body]) {
-                        *link = filed.next;
-                        continue;
-                    }
-                    visit(filed.body);
-                    link = &changed_[*link].next;
-                }
-            });
-        }
-        // The boxes at the start of the step, filed by centre: one cell further.
-        std::int64_t const cells = cell_count(lo, hi, 1);
-        if (cells > static_cast<std::int64_t>(entries_.size()) || cells <= 0) {
-            for (auto const& filed : entries_)
-                visit(filed.body);
-            return;
-        }
-        for_each_cell(lo, hi, 1, [&](std::uint64_t k) {
-            std::uint32_t const* const head = start_head_.find(k);
-            for (std::uint32_t e = head ? *head : no_change; e != no_change; e = entries_[e].next)
-                visit(entries_[e].body);
-        });
-    }
-
-private:
-    /// A box at the start of the step, in its cell's chain.
-    struct entry
-    {
-        std::uint32_t body;
-        std::uint32_t next; ///< the cell's entry before it, or no_change
-    };
-    /// A changed path filed in one cell: the cell's changes are a chain, newest first.
-    struct filed_change
-    {
-        std::uint32_t body;
-        std::uint32_t filing; ///< which of the body's filings: stale once it is filed again
-        std::uint32_t next;   ///< the cell's change before it, or no_change
-    };
-
-    /// Files `box` in the list of large boxes, replacing body's entry there.
-    void list(std::uint32_t body, aabb const& box)
-    {
-        if (listed_at_[body] == not_listed) {
-            listed_at_[body] = static_cast<std::uint32_t>(listed_.size());
-            listed_.push_back({body, box});
-        } else {
-            listed_[listed_at_[body]].second = box;
-        }
-    }
-
-    std::array<std::int64_t, 3> cell_of(vec3 const& p) const
-    {
-        std::array<std::int64_t, 3> c{};
-        for (int axis = 0; axis < 3; ++axis)
-            c[static_cast<std::size_t>(axis)] = static_cast<std::int64_t>(
-                std::clamp(std::floor(p[axis] / cell_), -1099511627776.0, 1099511627776.0));
-        return c;
-    }
-
-    using cell = std::array<std::int64_t, 3>;
-
-    /// Cells from lo to hi, widened by `more` on every side (<= 0 when the count overflows).
-    static std::int64_t cell_count(cell const& lo, cell const& hi, std::int64_t more)
-    {
-        return (hi[0] - lo[0] + 1 + 2 * more) * (hi[1] - lo[1] + 1 + 2 * more) * (hi[2] - lo[2] + 1 + 2 * more);
-    }
-
-    /// Calls f(key) for each cell from lo to hi, widened by `more` on every side.
-    template <class F>
-    static void for_each_cell(cell const& lo, cell const& hi, std::int64_t more, F const& f)
-    {
-        for (std::int64_t x = lo[0] - more; x <= hi[0] + more; ++x)
-            for (std::int64_t y = lo[1] - more; y <= hi[1] + more; ++y)
-                for (std::int64_t z = lo[2] - more; z <= hi[2] + more; ++z)
-                    f(key({x, y, z}));
-    }
-
-    /// 21 bits per axis; cells that wrap onto the same key only add candidates.
-    static std::uint64_t key(std::array<std::int64_t, 3> const& c)
-    {
-        auto const bits = [](std::int64_t v) { return static_cast<std::uint64_t>(v) & 0x1FFFFFU; };
-        return (bits(c[0]) << 42U) | (bits(c[1]) << 21U) | bits(c[2]);
-    }
-
-    /// Cells a changed box is filed in at most; a box of about the mean size overlaps up to 8.
-    static constexpr std::int64_t most_cells = 27;
-    double cell_ = 1.0;
-    std::vector<entry> entries_;
-    cell_map<std::uint32_t> start_head_; ///< cell key: its last entry
-    static constexpr std::uint32_t not_listed = 0xffffffffU;
-    static constexpr std::uint32_t no_change = 0xffffffffU;
-    std::vector<std::pair<std::uint32_t, aabb>> listed_;
-    std::vector<std::uint32_t> listed_at_; ///< per body: its place in listed_, or not_listed
-    cell_map<std::uint32_t> changed_head_; ///< cell key: its newest change
-    std::vector<filed_change> changed_;
-    std::vector<std::uint32_t> filing_; ///< per body: its latest filing in the cells
-    std::vector<std::uint32_t> seen_;
-    std::uint32_t stamp_ = 0;
-};
-
 class event_loop
 {
 public:
     event_loop(collision_settings const& settings, std::span<wall const> walls,
                std::span<obstacle const> obstacles, collision_bodies const& bodies, double h,
-               collision_workspace& ws, collision_stats& stats)
+               continuous::workspace& ws, collision_stats& stats)
         : settings_(settings), walls_(walls), obstacles_(obstacles), b_(bodies), h_(h), ws_(ws),
           stats_(stats)
-    {}
+    {
+        for (std::size_t k = 0; k < walls.size() && k < facings_.size(); ++k) {
+            vec3 const& n = walls[k].surface.normal;
+            Eigen::Index axis = 0;
+            if (n.cwiseAbs().maxCoeff(&axis) == 1.0 && (n.array() == 0.0).count() == 2)
+                facings_[k] = {static_cast<int>(axis), n[axis] > 0.0};
+        }
+        only_facing_walls_ = walls.size() <= facings_.size();
+        for (std::size_t k = 0; k < walls.size() && only_facing_walls_; ++k) {
+            facing const f = facings_[k];
+            if (f.axis < 0) {
+                only_facing_walls_ = false;
+                break;
+            }
+            double& bound = (f.positive ? below_ : above_)[f.axis];
+            bound = std::max(bound, walls[k].surface.offset);
+        }
+    }
 
     /// Returns false when an event cap (per step or per body) was reached.
+    ///
+    /// The step is taken in slices short enough that a sphere moves about a radius in each
+    /// (one slice unless spheres move farther than that in a step): the grid holds each path's
+    /// box over the slice, so a fast sphere's prediction looks at the spheres near it now, not
+    /// at all it may pass in the step. Events are still predicted to the step's end and taken
+    /// in one order: a pair is predicted from where the later of its two paths changed, with
+    /// that body first, exactly as if it had been predicted when that path changed, so the
+    /// slicing changes the cost, never an event.
     bool run()
     {
+        ws_.queue.clear();
         start_paths();
-        predict_all();
+        std::size_t const slices = slice_count();
         std::uint64_t handled = 0;
-        while (!queue_.empty()) {
-            event const e = queue_.top();
-            queue_.pop();
-            if (!current(e))
-                continue;
-            if (handled == settings_.max_events_per_step || !take_part(e.body) ||
-                (e.kind == event_kind::pair && !take_part(e.other)))
-                return false;
-            ++handled;
-            ++stats_.events;
-            handle(e);
+        double slice_start = 0.0;
+        for (std::size_t s = 1; s <= slices; ++s) {
+            slice_end_ = s == slices ? h_ : h_ * static_cast<double>(s) / static_cast<double>(slices);
+            if (s > 1) // the first slice's boxes are the whole step's when it is the only one
+                file_boxes(slice_start);
+            else if (slices > 1)
+                file_boxes(0.0);
+            start_slice();
+            bool const last = s == slices;
+            while (!ws_.queue.empty() && (last || ws_.queue.front().time <= slice_end_)) {
+                std::pop_heap(ws_.queue.begin(), ws_.queue.end(), std::greater<>{});
+                event const e = ws_.queue.back();
+                ws_.queue.pop_back();
+                if (!current(e))
+                    continue;
+                if (handled == settings_.max_events_per_step || !take_part(e.body) ||
+                    (e.kind == continuous::event_kind::pair && !take_part(e.other)))
+                    return false;
+                ++handled;
+                ++stats_.events;
+                handle(e);
+            }
+            slice_start = slice_end_;
         }
         return true;
     }
@@ -378,6 +135,14 @@ public:
     }
 
 private:
+    using event = continuous::event;
+    using event_kind = continuous::event_kind;
+
+    /// A slice is as long as lets the mean sphere move about `slice_reach` of the mean radius;
+    /// at most `most_slices` a step.
+    static constexpr double slice_reach = 1.0;
+    static constexpr std::size_t most_slices = 64;
+
     bool is_dynamic(std::uint32_t i) const { return b_.inverse_mass[i] > 0.0; }
 
     /// Counts an event of body i; false when i already took part in its share.
@@ -393,53 +158,116 @@ private:
         ws_.path_box.resize(n);
         ws_.free_acceleration.resize(n);
         ws_.version.assign(n, 0);
+        ws_.changed.assign(n, 0);
         ws_.events_of.assign(n, 0);
         ws_.members.clear();
-        ws_.boxes.clear();
+        changes_ = 0;
         for (std::size_t i = 0; i < n; ++i) {
             if (b_.radius[i] <= 0.0)
                 continue; // point masses never collide and keep the integrator's result
             vec3 const a = is_dynamic(static_cast<std::uint32_t>(i)) ? vec3((b_.v[i] - b_.v0[i]) / h_)
                                                                      : vec3(vec3::Zero());
-            ws_.paths[i] = body_path{b_.x0[i], b_.v0[i], a, 0.0};
+            auto const body = static_cast<std::uint32_t>(i);
+            body_path const& p = ws_.paths[i] = body_path{b_.x0[i], b_.v0[i], a, 0.0};
             ws_.free_acceleration[i] = a;
-            ws_.members.push_back(static_cast<std::uint32_t>(i));
-            ws_.boxes.push_back(ws_.paths[i].swept_box(h_, b_.radius[i]));
-            ws_.path_box[i] = ws_.boxes.back();
+            ws_.members.push_back(body);
+            // the path's box over the whole step: its walls' test, and the first slice's box
+            ws_.path_box[i] = p.swept_box(h_, b_.radius[i]);
+            predict_static(body, 0.0, p, ws_.path_box[i]);
         }
     }
 
-    /// Every pair whose swept boxes meet, and every sphere against the static geometry.
-    void predict_all()
+    std::size_t slice_count() const
     {
-        grid_ready_ = false;
-        find_overlapping_pairs(settings_.broadphase, ws_.boxes, ws_.pairs, ws_.broadphase);
-        for (box_pair const& p : ws_.pairs)
-            predict_pair(ws_.members[p.a], ws_.members[p.b], 0.0);
-        for (std::uint32_t i : ws_.members)
-            predict_static(i, 0.0);
+        double travel = 0.0, reach = 0.0;
+        for (std::uint32_t i : ws_.members) {
+            body_path const& p = ws_.paths[i];
+            travel += p.v.norm() * h_ + 0.5 * p.a.norm() * h_ * h_;
+            reach += b_.radius[i];
+        }
+        double const slices = std::ceil(travel / (slice_reach * reach));
+        return slices >= static_cast<double>(most_slices) ? most_slices
+                                                          : std::max<std::size_t>(1, static_cast<std::size_t>(slices));
+    }
+
+    /// Each path's box over the slice, from where it is at the slice's start (or from its last
+    /// change).
+    void file_boxes(double from)
+    {
+        for (std::uint32_t i : ws_.members) {
+            body_path const& p = ws_.paths[i];
+            ws_.path_box[i] = (p.t >= from ? p : path_from(i, from)).swept_box(slice_end_, b_.radius[i]);
+        }
+    }
+
+    /// Files every path's box and predicts every pair whose boxes overlap.
+    void start_slice()
+    {
+        ws_.grid.reset(ws_.path_box, ws_.members);
+        ws_.grid.overlapping_pairs(ws_.pairs);
+        for (auto const& [i, j] : ws_.pairs)
+            predict_between(i, j);
+        // The boxes too large for a cell: against those that fit near them, and among themselves.
+        auto const listed = ws_.grid.listed_at_reset();
+        if (listed.empty())
+            return;
+        ws_.listed_boxes.clear();
+        for (std::uint32_t i : listed) {
+            aabb const& box = ws_.path_box[i];
+            ws_.listed_boxes.push_back(box);
+            ws_.grid.for_each_filed_near(box, [&](std::uint32_t j) {
+                if (overlaps(box, ws_.path_box[j]))
+                    predict_between(i, j);
+            });
+        }
+        find_overlapping_pairs(broadphase_kind::uniform_grid, ws_.listed_boxes, ws_.listed_pairs, ws_.broadphase);
+        for (box_pair const& p : ws_.listed_pairs)
+            predict_between(listed[p.a], listed[p.b]);
+    }
+
+    /// Predicts i and j from where the later of their paths changed, that body first (the
+    /// lower slot when neither changed in this step): what predict_body did when that path
+    /// changed, so the same event, bit for bit, whenever it is found.
+    void predict_between(std::uint32_t i, std::uint32_t j)
+    {
+        if (!is_dynamic(i) && !is_dynamic(j))
+            return;
+        std::uint32_t const ci = ws_.changed[i], cj = ws_.changed[j];
+        if (cj > ci || (cj == ci && j < i))
+            std::swap(i, j);
+        predict_pair(i, j, ws_.paths[i].t);
     }
 
     /// After body i's path changed at time `now`: its contacts with everything.
     void predict_body(std::uint32_t i, double now)
     {
+        ws_.changed[i] = ++changes_;
         predict_static(i, now);
-        aabb const swept = path_from(i, now).swept_box(h_, b_.radius[i]);
-        if (!grid_ready_) { // most steps of a dilute gas have no event: build on demand
-            grid_.reset(ws_.boxes, ws_.members, b_.x.size());
-            grid_ready_ = true;
-        }
-        grid_.insert(i, swept);
+        aabb const swept = path_from(i, now).swept_box(slice_end_, b_.radius[i]);
+        ws_.grid.insert(i, swept);
         ws_.path_box[i] = swept;
         // j's box from when its path last changed holds its box from now on: a candidate
-        // whose path cannot meet this one's is passed over without sweeping its path again
-        // (predict_pair decides exactly for the rest).
-        grid_.for_each_near(swept, [&](std::uint32_t j) {
+        // whose path cannot meet this one's in the slice is passed over without sweeping its
+        // path again (predict_pair decides exactly for the rest; later slices look again).
+        ws_.grid.for_each_near(swept, [&](std::uint32_t j) {
             if (j == i || (!is_dynamic(i) && !is_dynamic(j)))
                 return;
             if (overlaps(swept, ws_.path_box[j]))
                 predict_pair(i, j, now);
         });
+    }
+
+    /// i's path from `now`: its own when it was last changed then (no copy), else `scratch`
+    /// moved there. The same numbers either way, up to the sign of a zero (advance_to(t) at t
+    /// adds ±0), which no time of impact depends on.
+    body_path const& path_at(std::uint32_t i, double now, body_path& scratch) const
+    {
+        body_path const& p = ws_.paths[i];
+        if (p.t == now)
+            return p;
+        scratch = p;
+        scratch.advance_to(now);
+        return scratch;
     }
 
     body_path path_from(std::uint32_t i, double now) const
@@ -452,7 +280,8 @@ private:
     void push(double time, event_kind kind, std::uint32_t body, std::uint32_t other)
     {
         std::uint32_t const other_version = kind == event_kind::pair ? ws_.version[other] : 0;
-        queue_.push({time, kind, body, other, ws_.version[body], other_version});
+        ws_.queue.push_back({time, kind, body, other, ws_.version[body], other_version});
+        std::push_heap(ws_.queue.begin(), ws_.queue.end(), std::greater<>{});
     }
 
     bool current(event const& e) const
@@ -465,7 +294,9 @@ private:
     {
         if (!is_dynamic(i) && !is_dynamic(j))
             return;
-        body_path const pi = path_from(i, now), pj = path_from(j, now);
+        body_path scratch_i, scratch_j;
+        body_path const& pi = path_at(i, now, scratch_i);
+        body_path const& pj = path_at(j, now, scratch_j);
         double const limit = h_ - now;
         double const reach = b_.radius[i] + b_.radius[j];
         vec3 const a = pi.a - pj.a;
@@ -494,15 +325,32 @@ private:
     {
         if (!is_dynamic(i))
             return;
-        body_path const p = path_from(i, now);
+        body_path scratch;
+        body_path const& p = path_at(i, now, scratch);
+        predict_static(i, now, p, p.swept_box(h_, b_.radius[i]));
+    }
+
+    /// The same, given i's path from now and its box to the step's end.
+    void predict_static(std::uint32_t i, double now, body_path const& p, aabb const& swept)
+    {
+        if (!is_dynamic(i))
+            return;
         double const r = b_.radius[i];
         double const limit = h_ - now;
-        aabb const swept = p.swept_box(h_, r);
         vec3 const centre = swept.centre(), half = 0.5 * swept.extent();
-        for (std::uint32_t k = 0; k < walls_.size(); ++k) {
+        // Most boxes are clear of every wall (the same test as below, against the farthest
+        // reaching wall of each axis and side at once).
+        bool const clear = only_facing_walls_ &&
+                           ((centre - half).array() > below_.array()).all() &&
+                           ((-centre - half).array() > above_.array()).all();
+        for (std::uint32_t k = 0; k < (clear ? 0U : walls_.size()); ++k) {
             plane const& surface = walls_[k].surface;
-            // the nearest point of the swept box (already grown by r) stays clear of the wall
-            if (surface.normal.dot(centre) - surface.normal.cwiseAbs().dot(half) > surface.offset)
+            // the nearest point of the swept box (already grown by r) stays clear of the wall:
+            // n·centre − |n|·half, which for a normal ±e_k is ±centre_k − half_k
+            facing const f = k < facings_.size() ? facings_[k] : facing{};
+            double const nearest = f.axis >= 0 ? (f.positive ? centre[f.axis] : -centre[f.axis]) - half[f.axis]
+                                               : surface.normal.dot(centre) - surface.normal.cwiseAbs().dot(half);
+            if (nearest > surface.offset)
                 continue;
             if (auto t = plane_time_of_impact(surface, r, p.x, p.v, p.a, limit))
                 push(now + *t, event_kind::wall, i, k);
@@ -585,11 +433,23 @@ private:
     std::span<obstacle const> obstacles_;
     collision_bodies const& b_;
     double h_;
-    collision_workspace& ws_;
+    continuous::workspace& ws_;
     collision_stats& stats_;
-    std::priority_queue<event, std::vector<event>, std::greater<>> queue_;
-    path_grid grid_;
-    bool grid_ready_ = false;
+    /// A wall whose normal is ±e_axis (as make_plane stores those), for its one-coordinate
+    /// test; axis −1 for any other wall, and for walls past the first few.
+    struct facing
+    {
+        int axis = -1;
+        bool positive = true;
+    };
+    std::array<facing, 8> facings_{};
+    /// Every wall faces along an axis: below_ (normals +e_k) and above_ (−e_k) hold, per axis,
+    /// the largest offset of those walls, −∞ where there is none.
+    bool only_facing_walls_ = false;
+    vec3 below_ = vec3::Constant(-std::numeric_limits<double>::infinity());
+    vec3 above_ = vec3::Constant(-std::numeric_limits<double>::infinity());
+    double slice_end_ = 0.0;
+    std::uint32_t changes_ = 0; ///< paths changed so far in the step
 };
 
 } // namespace
@@ -598,7 +458,7 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats)
 {
-    event_loop loop(settings, walls, obstacles, bodies, h, workspace, stats);
+    event_loop loop(settings, walls, obstacles, bodies, h, workspace.continuous, stats);
     bool const complete = loop.run();
     loop.finish();
     if (!complete) {

@@ -1,0 +1,61 @@
+#pragma once
+
+// The continuous mode's one workspace: the paths, the event queue and the grid, kept from step
+// to step so that a step in a steady state allocates nothing.
+
+#include "physics/aabb.hpp"
+#include "physics/body_path.hpp"
+#include "physics/broadphase.hpp"
+#include "physics/continuous/path_grid.hpp"
+#include "physics/vec.hpp"
+
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace kugel::physics::continuous {
+
+enum class event_kind : std::uint8_t { pair, wall, obstacle };
+
+/// A predicted contact: valid while neither body's path has changed since (their versions).
+struct event
+{
+    double time;
+    event_kind kind;
+    std::uint32_t body;
+    std::uint32_t other; ///< body, wall or obstacle index
+    std::uint32_t body_version;
+    std::uint32_t other_version; ///< for pairs
+
+    /// Earliest first; ties broken by kind and indices so the order never depends on the heap.
+    friend bool operator>(event const& l, event const& r)
+    {
+        if (l.time != r.time)
+            return l.time > r.time;
+        if (l.kind != r.kind)
+            return l.kind > r.kind;
+        if (l.body != r.body)
+            return l.body > r.body;
+        return l.other > r.other;
+    }
+};
+
+struct workspace
+{
+    std::vector<std::uint32_t> members;  ///< the spheres (radius > 0), in slot order
+    std::vector<body_path> paths;        ///< by body: its path in this step, from its last change
+    std::vector<aabb> path_box;          ///< by body: its path's box to the slice's end, from its last change
+    std::vector<vec3> free_acceleration; ///< by body: its acceleration from free motion alone
+    std::vector<std::uint32_t> version;  ///< by body: bumped when its path changes
+    std::vector<std::uint32_t> changed;  ///< by body: when its path last changed, as a count of changes in the step (0: not yet)
+    std::vector<std::uint64_t> events_of; ///< by body: events it took part in this step
+    std::vector<event> queue;            ///< a min-heap by operator>
+    path_grid grid;
+    std::vector<std::array<std::uint32_t, 2>> pairs; ///< bodies whose boxes overlap at a slice's start
+    // the boxes too large for the grid's cells, paired among themselves
+    std::vector<aabb> listed_boxes;
+    std::vector<box_pair> listed_pairs;
+    broadphase_workspace broadphase;
+};
+
+} // namespace kugel::physics::continuous
