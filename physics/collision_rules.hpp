@@ -19,6 +19,17 @@ inline double rest_threshold(collision_settings const& s, vec3 const& a, vec3 co
     return s.rest_speed ? *s.rest_speed : 2.0 * std::abs(a.dot(n)) * h;
 }
 
+/// The discrete step's rest threshold at a contact in a pile: the scene's rest_speed, or twice
+/// the speed one step of either body's own acceleration adds, whatever the contact's
+/// direction. Under uniform gravity a pair's relative acceleration is zero, and a contact's
+/// normal may lie across gravity (a sphere against a side wall, or beside another), where the
+/// acceleration along it is zero too: each step's fall, passed sideways through a pile, then
+/// bounced at e for ever and kept the pile from coming to rest.
+inline double resting_threshold(collision_settings const& s, vec3 const& a_a, vec3 const& a_b, double h)
+{
+    return s.rest_speed ? *s.rest_speed : 2.0 * std::max(a_a.norm(), a_b.norm()) * h;
+}
+
 /// Applies the lecture's wall rule to a body on its path at a contact with unit normal n
 /// (pointing out of the wall, towards the body), where the body's surface should sit at
 /// n·x = surface. A body moving into the wall is reflected with damping and friction; a body
@@ -85,20 +96,27 @@ inline void apply_sphere_friction(vec3& v_a, double inverse_mass_a, vec3& v_b, d
 /// their relative acceleration a_a − a_b. Then the scene's friction acts by Coulomb's law
 /// (apply_sphere_friction).
 /// Returns false when they do not close.
-inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3 const& a_a, vec3& v_b,
-                                      double inverse_mass_b, vec3 const& a_b, vec3 const& n,
-                                      collision_settings const& settings, double h)
+inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3& v_b, double inverse_mass_b,
+                                      vec3 const& n, collision_settings const& settings, double threshold)
 {
     double const closing = (v_a - v_b).dot(n);
     if (!(closing < 0.0))
         return false;
-    double const threshold = rest_threshold(settings, a_a - a_b, n, h);
     double const e = -closing * settings.restitution < threshold ? 0.0 : settings.restitution;
     auto const w = collide_spheres(v_a, inverse_mass_a, v_b, inverse_mass_b, n, e);
     v_a = w.first;
     v_b = w.second;
     apply_sphere_friction(v_a, inverse_mass_a, v_b, inverse_mass_b, n, settings.friction, -(1.0 + e) * closing);
     return true;
+}
+
+/// The same with the rest threshold of the pair's relative acceleration a_a − a_b.
+inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3 const& a_a, vec3& v_b,
+                                      double inverse_mass_b, vec3 const& a_b, vec3 const& n,
+                                      collision_settings const& settings, double h)
+{
+    return respond_to_sphere_contact(v_a, inverse_mass_a, v_b, inverse_mass_b, n, settings,
+                                     rest_threshold(settings, a_a - a_b, n, h));
 }
 
 /// A speculative contact (the discrete step's, discrete/velocity_passes.cpp): spheres apart
@@ -150,8 +168,8 @@ inline void clamp_to_walls(wall_set const& walls, vec3& x, vec3& v, double r, do
 
 /// A sphere (free acceleration a) moving into a wall it touches meets it by the wall's rule,
 /// as a bounce in the wall pass does: it leaves with the lecture's
-/// w = (1 − μ)·v_t − (1 − α)·v_n or, slower than the rest threshold, rests on the wall (no
-/// normal speed). Removing the normal speed outright would make every such meeting
+/// w = (1 − μ)·v_t − (1 − α)·v_n or, slower than the rest threshold (resting_threshold: of
+/// its acceleration whatever the wall's direction), rests on the wall (no normal speed). Removing the normal speed outright would make every such meeting
 /// perfectly inelastic (bench/README.md, decisions). Returns whether v changed.
 inline bool meet_wall(wall const& w, vec3& v, vec3 const& a, collision_settings const& settings, double h)
 {
@@ -160,7 +178,7 @@ inline bool meet_wall(wall const& w, vec3& v, vec3 const& a, collision_settings 
         return false;
     v = reflect_off_plane(v, n, w.damping, w.friction);
     double const outgoing = v.dot(n);
-    if (outgoing < rest_threshold(settings, a, n, h))
+    if (outgoing < resting_threshold(settings, a, a, h))
         v -= outgoing * n;
     return true;
 }

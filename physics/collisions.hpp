@@ -57,6 +57,13 @@ struct collision_settings
     /// of bouncing again. Unset: twice the normal speed the body's own acceleration adds in
     /// one step (2·|Δv·n|), which is zero without forces, so a gas stays exactly elastic.
     std::optional<double> rest_speed;
+    /// Discrete mode under forces: bodies at rest sleep (world.hpp, sleeping). An island of
+    /// bodies touching each other, carried by something static, falls asleep once every one
+    /// of them has been slower than sleep_speed for sleep_time; asleep, its bodies keep v = 0
+    /// and x exactly and cost a step nothing, until a command or an awake body touches them.
+    bool sleep = true;
+    double sleep_speed = 0.05; ///< m/s, > 0
+    double sleep_time = 0.5;   ///< s, >= 0
     int velocity_iterations = 4; ///< discrete mode: momentum-exchange passes over contacts at most
     int position_iterations = 4; ///< discrete mode: separation passes over overlapping pairs
     /// Continuous mode: events handled per step at most; past it the step finishes in

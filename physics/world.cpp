@@ -15,16 +15,33 @@ world::world(world_settings settings) : settings_(settings)
 body_id world::add_body(body_desc const& desc)
 {
     body_id const id = bodies_.add(desc);
+    calm_.push_back(0.0);
+    island_of_.push_back(awake);
     workspace_.invalidate();
+    wake_near(desc.position, desc.radius);
     return id;
 }
 
 bool world::remove_body(body_id id)
 {
-    bool const removed = bodies_.remove(id);
-    if (removed)
-        workspace_.invalidate();
-    return removed;
+    auto const slot = bodies_.slot_of(id);
+    if (!slot)
+        return false;
+    // What it carried wakes: its island, and the sleepers it touched (a static sphere is in
+    // no island).
+    if (island_of_[*slot] != awake)
+        wake_island(island_of_[*slot]);
+    vec3 const x = bodies_.positions()[*slot];
+    double const r = bodies_.radii()[*slot];
+    bodies_.remove(id);
+    // The storage moved its last body into the hole: so do the sleeping columns.
+    calm_[*slot] = calm_.back();
+    calm_.pop_back();
+    island_of_[*slot] = island_of_.back();
+    island_of_.pop_back();
+    wake_near(x, r);
+    workspace_.invalidate();
+    return true;
 }
 
 void world::restore_clock(double time, double time_compensation, std::uint64_t steps)
@@ -43,6 +60,8 @@ bool world::apply_impulse(body_id id, vec3 const& impulse)
         return false;
     if (!impulse.allFinite())
         throw std::invalid_argument("impulse must be finite");
+    if (island_of_[*slot] != awake)
+        wake_island(island_of_[*slot]);
     // Velocities do not enter the forces, so the cached accelerations stay valid.
     bodies_.velocities()[*slot] += bodies_.inverse_masses()[*slot] * impulse;
     return true;
@@ -52,6 +71,7 @@ void world::add_force(std::unique_ptr<force_model> model)
 {
     forces_.push_back(std::move(model));
     workspace_.invalidate();
+    wake_all();
 }
 
 bool world::forces_are_constant() const
@@ -124,12 +144,14 @@ void world::add_wall(wall const& w)
 {
     check_response(w.damping, w.friction);
     walls_.push_back({make_plane(w.surface.normal, w.surface.offset), w.damping, w.friction});
+    wake_all();
 }
 
 void world::add_obstacle(obstacle const& o)
 {
     check_response(o.damping, o.friction);
     obstacles_.push_back(o);
+    wake_all();
 }
 
 double world::max_overlap() const
@@ -191,8 +213,8 @@ void world::sort_bodies_by_cell()
 {
     sphere_grid const& grid = collision_workspace_.discrete.grid;
     std::size_t const n = bodies_.size();
-    if (!grid.in_cell_order())
-        return; // the grid declined the scene: its order is the slots'
+    if (!grid.in_cell_order() || gathered_)
+        return; // the grid declined the scene, or saw only the bodies near the awake ones
     cell_order_.clear();
     cell_order_.reserve(n);
     for (std::uint32_t k = 0; k < grid.sphere_count(); ++k)
@@ -202,6 +224,14 @@ void world::sort_bodies_by_cell()
         if (!(radius[i] > 0.0))
             cell_order_.push_back(i);
     bodies_.permute(cell_order_, loops());
+    std::vector<double> calm(cell_order_.size());
+    std::vector<std::uint32_t> island(cell_order_.size());
+    for (std::size_t k = 0; k < cell_order_.size(); ++k) {
+        calm[k] = calm_[cell_order_[k]];
+        island[k] = island_of_[cell_order_[k]];
+    }
+    calm_.swap(calm);
+    island_of_.swap(island);
     workspace_.invalidate();
 }
 
@@ -229,6 +259,14 @@ void world::step(double dt)
 {
     if (!std::isfinite(dt) || dt < 0.0)
         throw std::invalid_argument("step dt must be finite and >= 0");
+    bool const sleeping = sleeping_applies() && dt > 0.0;
+    if (sleeping) { // a step's islands start as one body each
+        parent_.resize(bodies_.size());
+        for (std::uint32_t i = 0; i < parent_.size(); ++i)
+            parent_[i] = i;
+        grounded_.assign(bodies_.size(), 0);
+        held_awake_.assign(bodies_.size(), 0);
+    }
     if (settings_.substeps > 1 && !forces_.empty()) {
         // A force can fail in a later substep: the substeps before it are undone, so that
         // a failed step changes nothing, as with one substep.
@@ -251,6 +289,8 @@ void world::step(double dt)
     time_compensation_ = (sum - time_) - increment;
     time_ = sum;
     ++steps_;
+    if (sleeping)
+        fall_asleep(dt);
 }
 
 void world::substeps(double dt)
@@ -269,10 +309,15 @@ void world::substeps(double dt)
         case collision_mode::discrete:
             if (forces_.empty()) {
                 collide(h, true);          // a drift, made by the wall pass on its way; the overlaps
+            } else if (sleeping_ > 0) {
+                move_and_collide_around_sleepers(h); // the same for the awake bodies, sleepers still
             } else {
                 keep_start_and_move_freely(h);
                 collide(h, false);         // the overlaps at the end of free motion
+                gathered_ = false;
             }
+            if (sleeping_applies())
+                note_contacts();           // islands, what they touch, sleepers to wake
             break;
         }
     }

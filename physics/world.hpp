@@ -28,12 +28,26 @@ public:
     explicit world(world_settings settings = {});
 
     /// Throws std::invalid_argument on a body the storage refuses (see body_storage::add).
+    /// Wakes the sleeping bodies it touches.
     body_id add_body(body_desc const& desc);
-    /// False when the id names no live body.
+    /// False when the id names no live body. Wakes its island and the sleeping bodies it
+    /// touched (what it carried).
     bool remove_body(body_id id);
 
-    /// Adds J/m to a dynamic body's velocity (lecture: F = m·a, integrated over the impulse).
-    /// False when the id names no live body; a static body ignores impulses.
+    /// Sleeping (discrete mode under forces, collision_settings::sleep): whether the body in
+    /// this slot is asleep. A sleeping body has v = 0 exactly and keeps its x; free motion
+    /// skips it and contacts take it as static. It wakes, with every body of its island, when
+    /// an awake body touches it, when a command changes it (apply_impulse) or a body near it
+    /// (add_body, remove_body), or when the world's forces, walls or boxes change.
+    bool asleep(std::size_t slot) const { return island_of_[slot] != awake; }
+    /// Bodies asleep now.
+    std::size_t sleeping_bodies() const { return sleeping_; }
+    /// Wakes every sleeping body.
+    void wake_all();
+
+    /// Adds J/m to a dynamic body's velocity (lecture: F = m·a, integrated over the impulse),
+    /// waking it (and its island) when asleep. False when the id names no live body; a static
+    /// body ignores impulses.
     bool apply_impulse(body_id id, vec3 const& impulse);
 
     void add_force(std::unique_ptr<force_model> model);
@@ -129,6 +143,25 @@ private:
     /// Moves the bodies into the last collision step's cell order (bodies_worth_sorting).
     void sort_bodies_by_cell();
 
+    // Sleeping (world_sleep.cpp)
+    static constexpr std::uint32_t awake = 0; ///< island_of_ of an awake body
+    /// Whether this step puts bodies to sleep and keeps sleepers still: discrete mode, under
+    /// forces, sleep on.
+    bool sleeping_applies() const;
+    /// The contacts of a discrete step with sleepers: free motion for the awake bodies only,
+    /// then the collision step over them and the sleeping or static spheres near them, which
+    /// it takes as static.
+    void move_and_collide_around_sleepers(double h);
+    /// After a substep's collisions: links the awake bodies its contacts join into islands,
+    /// notes which touch something static, and wakes the sleepers an awake body touched.
+    void note_contacts();
+    /// After a step: the calm time of each awake body, and the islands that fall asleep.
+    void fall_asleep(double dt);
+    void wake_island(std::uint32_t island);
+    /// Wakes the islands of the sleeping spheres within reach of a sphere at x of radius r.
+    void wake_near(vec3 const& x, double r);
+    std::uint32_t find_root(std::uint32_t slot);
+
     world_settings settings_;
     body_storage bodies_;
     std::vector<std::unique_ptr<force_model>> forces_;
@@ -143,6 +176,24 @@ private:
     /// from step to step, so the step allocates nothing once they have grown)
     std::vector<vec3> undo_x_, undo_v_;
     std::vector<std::uint32_t> cell_order_; ///< scratch for sort_bodies_by_cell()
+    // Sleeping, by slot (moved with the bodies by remove_body and sort_bodies_by_cell)
+    std::vector<double> calm_;              ///< s the body has been slower than sleep_speed
+    std::vector<std::uint32_t> island_of_;  ///< its sleeping island's number, or awake
+    /// The bodies of each sleeping island, by number − 1 (empty: the number is free)
+    std::vector<std::vector<body_id>> sleeping_islands_;
+    std::vector<std::uint32_t> free_islands_; ///< numbers to reuse
+    std::size_t sleeping_ = 0;              ///< bodies asleep
+    // A step's islands of awake bodies (union–find by slot), and what they touch
+    std::vector<std::uint32_t> parent_;
+    std::vector<std::uint8_t> grounded_;    ///< by root: touches a wall, a box or a static sphere
+    std::vector<std::uint8_t> held_awake_;  ///< by root: touched a sleeper, which wakes
+    std::vector<double> island_calm_;       ///< by root: the least calm time of its bodies
+    std::vector<std::uint32_t> to_wake_;
+    // The collision step around sleepers: the bodies it sees, by slot, and their copies
+    std::vector<std::uint32_t> active_;
+    bool gathered_ = false; ///< the last collision step saw active_, not every body
+    std::vector<vec3> active_x_, active_v_, active_x0_, active_v0_;
+    std::vector<double> active_inverse_mass_, active_radius_;
     parallel_for* loops_ = nullptr; ///< lent by the owner, or none
     std::size_t share_from_ = bodies_worth_sharing; ///< loops_ is used from this many bodies
     /// loops_ when the world holds enough bodies for it to pay, else none.

@@ -361,8 +361,8 @@ obstacle_settings read_obstacle(json const& value, location const& at)
 physics::collision_settings read_collisions(json const& value, location const& at)
 {
     object(value, at,
-           {"mode", "broadphase", "restitution", "friction", "rest_speed", "velocity_iterations",
-            "position_iterations", "max_events_per_step", "max_events_per_body"});
+           {"mode", "broadphase", "restitution", "friction", "rest_speed", "sleep", "sleep_speed", "sleep_time",
+            "velocity_iterations", "position_iterations", "max_events_per_step", "max_events_per_body"});
     physics::collision_settings c;
     c.mode = physics::collision_mode::discrete; // naming collisions turns them on
     if (auto const* mode = find(value, "mode")) {
@@ -384,6 +384,14 @@ physics::collision_settings read_collisions(json const& value, location const& a
     c.friction = optional_field(value, "friction", at, c.friction, unit_interval);
     if (auto const* rest = find(value, "rest_speed"))
         c.rest_speed = number_at_least(*rest, at / "rest_speed", 0.0, false);
+    c.sleep = optional_field(value, "sleep", at, c.sleep, boolean);
+    // A sleep speed of 0 would let nothing sleep: "sleep": false says that.
+    c.sleep_speed = optional_field(value, "sleep_speed", at, c.sleep_speed, [](json const& v, location const& l) {
+        return number_at_least(v, l, 0.0, true);
+    });
+    c.sleep_time = optional_field(value, "sleep_time", at, c.sleep_time, [](json const& v, location const& l) {
+        return number_at_least(v, l, 0.0, false);
+    });
     c.velocity_iterations = static_cast<int>(optional_field(
         value, "velocity_iterations", at, std::uint64_t{4},
         [](json const& v, location const& l) { return whole_number(v, l, 1, 100); }));

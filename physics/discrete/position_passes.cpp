@@ -24,7 +24,8 @@ constexpr double rounding_overlap = 0x1p-42;
 /// alone (velocity_passes.cpp): the lower one carries it. Pushing both by their masses
 /// squeezed the bottom layer of a pile sideways along the floor, a little every step.
 [[gnu::always_inline]] inline bool separate(sphere_grid& grid, sphere_pair const& c, once_per_pass const& once,
-                                            std::vector<std::uint32_t>& moved, std::span<vec3 const> free_a)
+                                            std::vector<std::uint32_t>& moved, std::span<vec3 const> free_a,
+                                            std::span<vec3> v)
 {
     packed_sphere& s = grid.sphere(c.a);
     packed_sphere& t = grid.sphere(c.b);
@@ -52,6 +53,20 @@ constexpr double rounding_overlap = 0x1p-42;
     t.x += (gap * share_t) * n;
     once.list(moved, c.a);
     once.list(moved, c.b);
+    if (!free_a.empty()) {
+        // Pushed apart, the pair keeps no speed into the overlap it was pushed out of (a
+        // perfectly inelastic meeting, shared as the push was): otherwise a sphere held in a
+        // pile by the pushes alone kept moving into its neighbour step after step, its
+        // velocity no longer its motion, and passed that velocity up to the spheres it
+        // carried by friction.
+        vec3& v_s = v[grid.slot(c.a)];
+        vec3& v_t = v[grid.slot(c.b)];
+        double const closing = (v_s - v_t).dot(n);
+        if (closing < 0.0) {
+            v_s -= (closing * share_s) * n;
+            v_t += (closing * share_t) * n;
+        }
+    }
     return true;
 }
 
@@ -63,14 +78,14 @@ constexpr double rounding_overlap = 0x1p-42;
 /// by the test), and lists the rest of the block again after a push, which may have marked
 /// more: the pairs checked are exactly those the test admits in order.
 void separate_slab(sphere_grid& grid, contact_slab& slab, once_per_pass const& once, std::uint32_t recent,
-                   std::span<vec3 const> free_a)
+                   std::span<vec3 const> free_a, std::span<vec3> v)
 {
     slab.touched.clear(); // now: the spheres this pass moved
     sphere_pair const* const near = slab.near.data();
     std::size_t const pairs = slab.near.size();
     if (recent == 0) {
         for (std::size_t k = 0; k < pairs; ++k)
-            separate(grid, near[k], once, slab.touched, free_a);
+            separate(grid, near[k], once, slab.touched, free_a, v);
         return;
     }
     constexpr std::size_t block = 16;
@@ -89,7 +104,7 @@ void separate_slab(sphere_grid& grid, contact_slab& slab, once_per_pass const& o
         std::size_t listed = list_due(first), at = 0;
         while (at < listed) {
             std::uint32_t const k = due[at++];
-            if (separate(grid, near[k], once, slab.touched, free_a)) { // it marked two spheres: list the rest again
+            if (separate(grid, near[k], once, slab.touched, free_a, v)) { // it marked two spheres: list the rest again
                 listed = list_due(k + 1);
                 at = 0;
             }
@@ -111,7 +126,8 @@ void position_passes(step_context const& step, free_accelerations free_a, discre
     for (int pass = 0; pass < step.settings.position_iterations; ++pass) {
         std::uint32_t const recent = pass == 0 ? 0 : stamp;
         once_per_pass const once{ws.mark, ++stamp};
-        by_parity(ws, step.loops, [&](contact_slab& slab) { separate_slab(grid, slab, once, recent, free_a.a); });
+        by_parity(ws, step.loops,
+                  [&](contact_slab& slab) { separate_slab(grid, slab, once, recent, free_a.a, step.bodies.v); });
         // The spheres moved meet the walls; the body slot is looked up only for the few that
         // touch one. Each goes on the slab's list to be written back, once for each pass that
         // moved it (writing the last position twice costs less than remembering whether it

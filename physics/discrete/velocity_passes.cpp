@@ -265,9 +265,10 @@ void velocity_passes(step_context const& step, free_accelerations free_a, discre
                 double const allowed = slab.allowed[k];
                 bool const responded =
                     allowed < 0.0
-                        ? detail::respond_to_sphere_contact(moving[i].v, moving[i].inverse_mass, acceleration(i),
-                                                            moving[j].v, moving[j].inverse_mass, acceleration(j),
-                                                            slab.normals[k], step.settings, step.h)
+                        ? detail::respond_to_sphere_contact(
+                              moving[i].v, moving[i].inverse_mass, moving[j].v, moving[j].inverse_mass,
+                              slab.normals[k], step.settings,
+                              detail::resting_threshold(step.settings, acceleration(i), acceleration(j), step.h))
                         : detail::respond_to_speculative_contact(moving[i].v, moving[i].inverse_mass, moving[j].v,
                                                                  moving[j].inverse_mass, slab.normals[k], allowed,
                                                                  step.settings);

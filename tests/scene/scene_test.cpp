@@ -123,6 +123,11 @@ INSTANTIATE_TEST_SUITE_P(
         bad_case{"overflowing_number", R"({"dt": 1e999})", "not valid JSON", false},
         bad_case{"truncated", R"({"dt": 0.1, "bodies": [)", "not valid JSON", false},
         bad_case{"dt_as_string", R"({"dt": "0.01"})", "/dt: must be a number, got string"},
+        bad_case{"zero_sleep_speed", R"({"dt": 0.1, "collisions": {"sleep_speed": 0}})",
+                 "/collisions/sleep_speed: must be > 0, got 0"},
+        bad_case{"negative_sleep_time", R"({"dt": 0.1, "collisions": {"sleep_time": -0.5}})",
+                 "/collisions/sleep_time: must be >= 0, got -0.5"},
+        bad_case{"sleep_as_number", R"({"dt": 0.1, "collisions": {"sleep": 1}})", "/collisions/sleep: must be"},
         bad_case{"zero_dt", R"({"dt": 0})", "/dt: must be > 0, got 0"},
         bad_case{"unknown_force", R"({"dt": 0.1, "forces": {"magnetism": {}}})",
                  "/forces/magnetism: unknown field (known here: uniform_field, gravity, coulomb)"},
@@ -427,6 +432,20 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     auto const& fitted = w.obstacles()[1].box;
     EXPECT_LE((fitted.centre - physics::vec3(1, 0.5, 0.5)).norm(), 1e-12);
     EXPECT_NEAR(fitted.half_extents.maxCoeff(), 1.0, 1e-12);
+}
+
+TEST(SceneCollisions, SleepSettingsReachTheWorld)
+{
+    physics::collision_settings const defaults;
+    physics::world const w = build_world(parse_scene(
+        R"({"dt": 0.01, "collisions": {"sleep": false, "sleep_speed": 0.02, "sleep_time": 1.5}})", "test.json"));
+    EXPECT_FALSE(w.settings().collisions.sleep);
+    EXPECT_EQ(w.settings().collisions.sleep_speed, 0.02);
+    EXPECT_EQ(w.settings().collisions.sleep_time, 1.5);
+    physics::world const d = build_world(parse_scene(R"({"dt": 0.01, "collisions": {}})", "test.json"));
+    EXPECT_TRUE(d.settings().collisions.sleep);
+    EXPECT_EQ(d.settings().collisions.sleep_speed, defaults.sleep_speed);
+    EXPECT_EQ(d.settings().collisions.sleep_time, defaults.sleep_time);
 }
 
 TEST(SceneCollisions, NamingCollisionsTurnsThemOnInDiscreteMode)
