@@ -186,8 +186,11 @@ private:
             reach += b_.radius[i];
         }
         double const slices = std::ceil(travel / (slice_reach * reach));
-        return slices >= static_cast<double>(most_slices) ? most_slices
-                                                          : std::max<std::size_t>(1, static_cast<std::size_t>(slices));
+        // One slice when nothing moves or there is nothing to move (0/0), or a path is not
+        // finite (the caller's business, not a reason to loop).
+        if (!(slices > 1.0))
+            return 1;
+        return slices >= static_cast<double>(most_slices) ? most_slices : static_cast<std::size_t>(slices);
     }
 
     /// Each path's box over the slice, from where it is at the slice's start (or from its last

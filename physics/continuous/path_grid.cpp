@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace kugel::physics::continuous {
 
@@ -46,6 +47,8 @@ void path_grid::choose_cells(std::span<aabb const> boxes, std::span<std::uint32_
     if (!(lo.array() <= hi.array()).all() || !lo.allFinite() || !hi.allFinite()) {
         lo = hi = vec3::Zero();
     }
+    if (!(cell_ > 0.0) || !std::isfinite(cell_)) // boxes not finite: one cell holds them all
+        cell_ = std::max((hi - lo).maxCoeff(), 1.0);
     double const most = 4.0 * n + 64.0;
     for (;;) {
         double total = 1.0;

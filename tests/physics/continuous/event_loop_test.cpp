@@ -125,5 +125,23 @@ TEST(ContinuousEvents, CoulombForcesArePinned)
     EXPECT_EQ(pinned(o, 120), 0x9c878af91f8976e2ULL);
 }
 
+// A room of the continuous mode starts empty, or holds point masses only: a step then has no
+// sphere to slice by (a step once divided 0 by 0 for its slice count and looped for ever).
+TEST(ContinuousEvents, AWorldWithoutSpheresSteps)
+{
+    world w(colliding(collision_mode::continuous));
+    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
+    add_box(w, 1.0);
+    for (int i = 0; i < 10; ++i)
+        w.step(1.0 / 60.0);
+    body_id const point = w.add_body({vec3(0, 0, 0.5), vec3::Zero(), 1.0, 0.0, 0.0, false});
+    for (int i = 0; i < 10; ++i)
+        w.step(1.0 / 60.0);
+    // a point mass never collides: it falls freely, on the exact parabola
+    double const t = 10.0 / 60.0;
+    EXPECT_NEAR(w.bodies().positions()[*w.bodies().slot_of(point)].z(), 0.5 - 0.5 * 9.81 * t * t, 1e-12);
+    EXPECT_EQ(w.collisions().events, 0U);
+}
+
 } // namespace
 } // namespace kugel::physics
