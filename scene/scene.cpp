@@ -161,9 +161,15 @@ double read_mass(json const& obj, location const& at, double radius, bool is_sta
     json const* density = find(obj, "density");
     if (mass && density)
         at.fail("give either mass or density, not both");
+    // A dynamic body moves by 1/m: a mass so small that 1/m overflows (5e-324 kg) has none.
+    auto const usable = [&](double m, location const& where, std::string const& what) {
+        if (!is_static && !std::isfinite(1.0 / m))
+            where.fail(what + format(m) + " kg, too small for a moving body: 1/m overflows");
+        return m;
+    };
     if (mass)
         return is_static ? number_at_least(*mass, at / "mass", 0.0, false)
-                         : number_at_least(*mass, at / "mass", 0.0, true);
+                         : usable(number_at_least(*mass, at / "mass", 0.0, true), at / "mass", "is ");
     if (density) {
         double const rho = number_at_least(*density, at / "density", 0.0, true);
         if (radius <= 0.0)
@@ -171,7 +177,7 @@ double read_mass(json const& obj, location const& at, double radius, bool is_sta
         double const m = physics::mass_from_density(rho, radius);
         if (!std::isfinite(m) || (!is_static && !(m > 0.0)))
             (at / "density").fail("gives a mass of " + format(m) + " kg, not a usable mass");
-        return m;
+        return usable(m, at / "density", "gives a mass of ");
     }
     if (is_static)
         return 0.0;

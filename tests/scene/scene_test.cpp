@@ -143,6 +143,15 @@ INSTANTIATE_TEST_SUITE_P(
                  "/bodies/0: needs a mass (kg) or a density"},
         bad_case{"negative_mass", R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": -2}]})",
                  "/bodies/0/mass: must be > 0, got -2"},
+        // 1/m of the smallest double overflows: the engine would refuse the body at build
+        // time, with no field named (and once with no one catching it)
+        bad_case{"mass_whose_inverse_overflows",
+                 R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 5e-324}]})",
+                 "/bodies/0/mass: is 4.94066e-324 kg, too small for a moving body: 1/m overflows", false},
+        bad_case{"generator_mass_whose_inverse_overflows",
+                 R"({"dt": 0.1, "generators": [{"count": 2, "seed": 1, "radius": 0.1, "mass": 1e-309,
+                    "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/generators/0/mass: is 1e-309 kg, too small for a moving body: 1/m overflows", false},
         bad_case{"mass_and_density",
                  R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1, "density": 2, "radius": 1}]})",
                  "/bodies/0: give either mass or density, not both"},
