@@ -51,6 +51,24 @@ nlohmann::ordered_json force_methods(scene::scene const& s, physics::world const
     return methods;
 }
 
+/// The first body (in slot order) whose position or velocity is not finite.
+std::optional<physics::body_id> first_not_finite(physics::world const& w)
+{
+    auto const x = w.bodies().positions();
+    auto const v = w.bodies().velocities();
+    for (std::size_t i = 0; i < x.size(); ++i)
+        if (!(x[i].allFinite() && v[i].allFinite()))
+            return w.bodies().ids()[i];
+    return std::nullopt;
+}
+
+std::string finite_or_not(double x)
+{
+    return std::isfinite(x) ? nlohmann::json(x).dump() : std::string(std::isnan(x) ? "NaN" : "infinite");
+}
+
+std::string format(double x) { return nlohmann::json(x).dump(); }
+
 } // namespace
 
 nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
@@ -66,6 +84,11 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
     world.set_parallel_for(pool.get());
     world.time_phases(true); // for phase_ms_per_step
     auto const initial = physics::measure(world);
+    if (!(std::isfinite(initial.total) && initial.momentum.allFinite() && initial.angular_momentum.allFinite()))
+        throw unmeasurable_scene("the scene's initial state has no finite energy or momentum (kinetic " +
+                                 finite_or_not(initial.kinetic) + " J, potential " +
+                                 finite_or_not(initial.potential) +
+                                 " J): its masses, speeds or distances are beyond what doubles hold");
     auto const& integrator = physics::info(s.integrator);
 
     nlohmann::ordered_json summary;
@@ -91,8 +114,16 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
     std::uint64_t completed = 0;
     auto const started = std::chrono::steady_clock::now();
     try {
-        for (; completed < steps; ++completed)
+        for (; completed < steps; ++completed) {
             world.step(s.dt);
+            if (auto const bad = first_not_finite(world)) {
+                ++completed; // the step ran; what it left is reported below
+                summary["error"] = "step " + std::to_string(completed) + " left body " + std::to_string(physics::to_number(*bad)) +
+                                   " with a position or velocity that is not finite (dt " + format(s.dt) +
+                                   " s): the run stops there";
+                break;
+            }
+        }
     } catch (physics::singular_force_error const& e) {
         summary["error"] = e.what();
     }
@@ -107,6 +138,10 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
         final = physics::measure(world);
     } catch (physics::singular_force_error const&) {
     }
+    if (!summary.contains("error") && final && !std::isfinite(final->total))
+        summary["error"] = "the energy after step " + std::to_string(completed) +
+                           " is not finite (kinetic " + finite_or_not(final->kinetic) + " J, potential " +
+                           finite_or_not(final->potential) + " J): the state grew beyond what doubles hold";
     summary["steps_completed"] = completed;
     summary["time"] = world.time();
     summary["wall_ms"] = elapsed.count();

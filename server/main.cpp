@@ -41,6 +41,9 @@ int run_headless_command(std::string const& scene_file, std::vector<std::string>
     } catch (physics::singular_force_error const& e) {
         spdlog::error("the scene's initial state is singular: {}", e.what());
         return 1;
+    } catch (server::unmeasurable_scene const& e) {
+        spdlog::error("{}: {}", scene_file, e.what());
+        return 2;
     }
     std::cout << summary.dump() << '\n';
     if (summary.contains("error")) {

@@ -251,6 +251,37 @@ TEST(HeadlessRun, TreeCoulombWithMixedChargesSaysTheBoundIsPerSign)
     EXPECT_EQ(run_headless(direct, 1)["force_methods"]["coulomb"]["method"], "direct");
 }
 
+// A state whose diagnostics cannot be finite is refused before it runs: 1e308 kg at 2 m/s has
+// a kinetic energy of 2e308 J, beyond the largest double (issue #29: it ran, printed null
+// energies and exited 0).
+TEST(HeadlessCommand, AStateWithoutFiniteEnergyIsRefusedNamingWhy)
+{
+    auto const r = run_server("--scene " + scene("projectile.json") +
+                                  " --headless --steps 10 --set bodies.0.mass=1e308 --set bodies.0.velocity=[2,0,0]",
+                              true);
+    EXPECT_EQ(r.exit_code, 2);
+    EXPECT_NE(r.out.find("projectile.json: the scene's initial state has no finite energy"), std::string::npos)
+        << r.out;
+    EXPECT_NE(r.out.find("kinetic infinite J"), std::string::npos) << r.out;
+}
+
+// A run that overflows stops at the step that did it and names the body: with dt = 1e200 the
+// first step of the projectile leaves v·dt + g·dt²/2 beyond the largest double.
+TEST(HeadlessRun, ARunThatLeavesTheDoublesStopsNamingTheStepAndTheBody)
+{
+    std::vector<std::string> const overrides{"dt=1e200"};
+    auto s = scene::load_scene(scene("projectile.json"), overrides);
+    auto const summary = run_headless(s, 10);
+    ASSERT_TRUE(summary.contains("error")) << summary.dump();
+    auto const error = summary["error"].template get<std::string>();
+    EXPECT_NE(error.find("step 1 left body "), std::string::npos) << error;
+    EXPECT_NE(error.find("not finite"), std::string::npos) << error;
+    EXPECT_EQ(summary["steps_completed"], 1);
+    EXPECT_TRUE(nlohmann::json::parse(summary.dump())["energy_final"].is_null()); // as printed
+    auto const r = run_server("--scene " + scene("projectile.json") + " --headless --steps 10 --set dt=1e200");
+    EXPECT_EQ(r.exit_code, 1);
+}
+
 TEST(HeadlessCommand, SingularSceneExitsNonZero)
 {
     auto const r = run_server("--scene " + scene("kepler.json") +
