@@ -27,6 +27,18 @@ namespace {
 /// yet far below anything visible.
 constexpr double touching_tolerance = 1e-9;
 
+/// How far apart surfaces may still count as touching because positions are only known to
+/// their rounding: a few units in the last place of the largest coordinate of either body.
+/// Far from the origin that exceeds the relative tolerance above (at 1e9 m a position is
+/// known to 1.2e-7 m, against 2e-13 m for spheres of 1e-4 m), and an event moved there
+/// would otherwise find them apart, predict them again a rounding error later, and never
+/// answer the contact.
+double position_slack(vec3 const& a, vec3 const& b)
+{
+    double const largest = std::max(a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff());
+    return 8.0 * std::numeric_limits<double>::epsilon() * largest;
+}
+
 /// Conservative advancement: repeatedly move to the time at which the gap could at most have
 /// closed, given a bound on the closing speed, until the gap is within tolerance. Never steps
 /// past the first contact. `gap(τ)` is the signed distance, `closing(τ)` the rate at which it
@@ -428,7 +440,9 @@ private:
         switch (e.kind) {
         case event_kind::wall: {
             wall const& w = walls_[e.other];
-            if (w.surface.normal.dot(p.x) <= w.surface.offset + r + touching_tolerance * r)
+            double const height = w.surface.normal.dot(p.x);
+            if (height <= w.surface.offset + r + touching_tolerance * r ||
+                height <= w.surface.offset + r + position_slack(p.x, vec3::Zero()))
                 answered = detail::respond_to_surface(p, w.surface.normal, w.surface.offset + r,
                                                       w.damping, w.friction, settings_, h_);
             stats_.wall_contacts += answered ? 1U : 0U;
@@ -437,7 +451,7 @@ private:
         case event_kind::obstacle: {
             obstacle const& o = obstacles_[e.other];
             auto const c = sphere_vs_obb(p.x, r, o.box);
-            if (c.distance <= touching_tolerance * r)
+            if (c.distance <= touching_tolerance * r || c.distance <= position_slack(p.x, vec3::Zero()))
                 answered = detail::respond_to_surface(p, c.normal, p.x.dot(c.normal) - c.distance,
                                                       o.damping, o.friction, settings_, h_);
             stats_.obstacle_contacts += answered ? 1U : 0U;
@@ -450,7 +464,7 @@ private:
             vec3 const d = p.x - q.x;
             double const distance = d.norm();
             double const reach = r + b_.radius[j];
-            if (distance <= reach * (1.0 + touching_tolerance)) {
+            if (distance <= reach * (1.0 + touching_tolerance) || distance <= reach + position_slack(p.x, q.x)) {
                 vec3 const n = detail::contact_normal(d, distance);
                 if (detail::respond_to_sphere_contact(p.v, b_.inverse_mass[i], p.a, q.v, b_.inverse_mass[j],
                                                       q.a, n, settings_, h_)) {
