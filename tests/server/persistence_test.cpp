@@ -827,5 +827,44 @@ TEST(PersistenceProcess, ABadCheckpointStopsTheStartWithExitTwo)
     EXPECT_EQ(read_text(file), "{\"truncated\": ");
 }
 
+// The same from the command line: a room started with --set ROOM:PATH=VALUE restarts from its
+// checkpoint with the same --set, and without it stops the start with exit 2, saying why.
+TEST(PersistenceProcess, ARoomStartedWithoutTheOverridesOfItsCheckpointExitsTwo)
+{
+    fs::path const dir = fresh_dir("overrides_process");
+    fs::path const file = checkpoint_path(dir, "still");
+    std::vector<std::string> const plain{"--room", "still=" + write_scene(dir, "still", still_scene()).string(),
+                                         "--state", dir.string(), "--checkpoint-interval", "3600"};
+    std::vector<std::string> overridden = plain;
+    overridden.insert(overridden.end(), {"--set", "still:dt=0.03125"});
+    {
+        test_support::server_child p(KUGEL_SERVER_EXE, overridden, log_file("overrides_first"));
+        ws_client c(p.port(), "/ws/still");
+        EXPECT_EQ(c.next("welcome").at("dt"), 0.03125);
+        snapshot_at_or_after(c, 5);
+        EXPECT_EQ(p.stop(), 0) << p.log();
+    }
+    std::string const text = read_text(file);
+    checkpoint const saved = decode_checkpoint(text, file.string());
+    EXPECT_EQ(saved.scene_overrides, std::vector<std::string>{"dt=0.03125"});
+
+    std::vector<std::string> args = plain;
+    args.insert(args.begin(), {"--port", "0"});
+    test_support::child_process refused(KUGEL_SERVER_EXE, args, log_file("overrides_refused"));
+    EXPECT_EQ(refused.wait(std::chrono::seconds(30)), 2);
+    EXPECT_NE(refused.output().find(file.string() + R"(: /scene: it is of scene 'still' with overrides ["dt=0.03125"])"),
+              std::string::npos)
+        << refused.output();
+    EXPECT_NE(refused.output().find("the room was started with other overrides"), std::string::npos)
+        << refused.output();
+    EXPECT_EQ(read_text(file), text);
+
+    test_support::server_child p(KUGEL_SERVER_EXE, overridden, log_file("overrides_restored"));
+    EXPECT_NE(p.log().find("room 'still': restored from"), std::string::npos) << p.log();
+    ws_client c(p.port(), "/ws/still");
+    EXPECT_EQ(c.next("welcome").at("dt"), 0.03125);
+    EXPECT_GT(c.next("snapshot").at("tick").get<std::uint64_t>(), saved.tick);
+}
+
 } // namespace
 } // namespace kugel::server
