@@ -3,6 +3,7 @@
 #include <fmt/format.h>
 #include <nlohmann/json.hpp>
 
+#include <algorithm>
 #include <cerrno>
 #include <chrono>
 #include <fcntl.h>
@@ -96,11 +97,19 @@ std::system_error last_error(std::string const& what, std::filesystem::path cons
 
 } // namespace
 
-std::string scene_fingerprint(std::string_view scene_text)
+std::string scene_fingerprint(std::string_view scene_text, std::span<std::string const> overrides)
 {
     std::uint64_t h = 14695981039346656037ULL; // FNV-1a, 64 bits
+    auto const add = [&h](char c) { h = (h ^ static_cast<unsigned char>(c)) * 1099511628211ULL; };
     for (char c : scene_text)
-        h = (h ^ static_cast<unsigned char>(c)) * 1099511628211ULL;
+        add(c);
+    // Each override after a NUL, which neither a scene's JSON text nor a command-line
+    // argument can hold: no text and overrides can run into those of another.
+    for (std::string const& o : overrides) {
+        add('\0');
+        for (char c : o)
+            add(c);
+    }
     return fmt::format("fnv1a64:{:016x}", h);
 }
 
@@ -142,6 +151,8 @@ std::string encode_checkpoint(checkpoint const& c)
           {"radius", std::move(radius)},
           {"charge", std::move(charge)},
           {"static", std::move(is_static)}}}};
+    if (!c.scene_overrides.empty())
+        document["scene"]["overrides"] = c.scene_overrides;
     if (c.loaded_scene)
         document["loaded_scene"] = {{"name", c.loaded_scene->name},
                                     {"fingerprint", c.loaded_scene->fingerprint},
@@ -182,6 +193,13 @@ checkpoint decode_checkpoint(std::string_view text, std::string const& file)
     c.room = room.get<std::string>();
     c.scene_name = scene.at("name").get<std::string>();
     c.scene_fingerprint = scene.at("fingerprint").get<std::string>();
+    if (scene.contains("overrides")) {
+        json const& overrides = scene.at("overrides");
+        if (!overrides.is_array() ||
+            !std::ranges::all_of(overrides, [](json const& o) { return o.is_string(); }))
+            refuse(file, "/scene/overrides", "must be an array of strings, got " + overrides.dump());
+        c.scene_overrides = overrides.get<std::vector<std::string>>();
+    }
     c.tick = unsigned_field(document, "tick", file);
     c.time = number_field(document, "time", file);
     c.time_compensation = number_field(document, "time_compensation", file);
@@ -319,7 +337,8 @@ void write_file_atomically(std::filesystem::path const& file, std::string_view t
 std::optional<checkpoint> read_checkpoint(std::filesystem::path const& file,
                                           std::string const& room,
                                           std::string const& scene_name,
-                                          std::string const& fingerprint)
+                                          std::string const& fingerprint,
+                                          std::span<std::string const> overrides)
 {
     std::error_code ec;
     if (!std::filesystem::exists(file, ec))
@@ -333,11 +352,28 @@ std::optional<checkpoint> read_checkpoint(std::filesystem::path const& file,
     if (c.room != room)
         refuse(file.string(), "/room",
                fmt::format("it is room '{}''s, not room '{}''s", c.room, room));
-    if (c.scene_name != scene_name || c.scene_fingerprint != fingerprint)
+    bool const same_overrides = std::ranges::equal(c.scene_overrides, overrides);
+    if (c.scene_name != scene_name || c.scene_fingerprint != fingerprint || !same_overrides) {
+        // The overrides are said only where some were given, so that a room without any
+        // reads as it always did.
+        bool const any = !c.scene_overrides.empty() || !overrides.empty();
+        auto const described = [any](std::string const& name, std::string const& print,
+                                     std::span<std::string const> with) {
+            if (!any)
+                return fmt::format("'{}' ({})", name, print);
+            if (with.empty())
+                return fmt::format("'{}' without overrides ({})", name, print);
+            json const listed(std::vector<std::string>(with.begin(), with.end()));
+            return fmt::format("'{}' with overrides {} ({})", name, listed.dump(), print);
+        };
         refuse(file.string(), "/scene",
-               fmt::format("it is of scene '{}' ({}), but the room's scene is '{}' ({}): another "
-                           "scene, or the scene file changed",
-                           c.scene_name, c.scene_fingerprint, scene_name, fingerprint));
+               fmt::format("it is of scene {}, but the room's scene is {}: {}",
+                           described(c.scene_name, c.scene_fingerprint, c.scene_overrides),
+                           described(scene_name, fingerprint, overrides),
+                           same_overrides ? "another scene, or the scene file changed"
+                                          : "the room was started with other overrides "
+                                            "(--set ROOM:PATH=VALUE) than the checkpoint's"));
+    }
     return c;
 }
 

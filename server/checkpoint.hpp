@@ -11,6 +11,7 @@
 #include <cstdint>
 #include <filesystem>
 #include <optional>
+#include <span>
 #include <stdexcept>
 #include <string>
 #include <string_view>
@@ -44,7 +45,11 @@ struct checkpoint
 {
     std::string room;
     std::string scene_name;        ///< the room's own scene (its file)
-    std::string scene_fingerprint; ///< of the room's own scene's text (scene_fingerprint())
+    /// Of the room's own scene's text and overrides (scene_fingerprint()).
+    std::string scene_fingerprint;
+    /// The overrides (PATH=VALUE, in order) the room's own scene was started with; none
+    /// for a room without (then the file has no `overrides`, as before there were any).
+    std::vector<std::string> scene_overrides;
     /// The scene the room runs when an admin loaded one; none: it runs its own.
     std::optional<embedded_scene> loaded_scene;
     std::uint64_t tick = 0;        ///< ticks completed
@@ -61,9 +66,12 @@ struct checkpoint
     std::vector<body> bodies; ///< in slot order, so stepping on gives the same results
 };
 
-/// A short, stable fingerprint of a scene's text: "fnv1a64:" and 16 hex digits. Any edit
-/// to the scene file changes it.
-std::string scene_fingerprint(std::string_view scene_text);
+/// A short, stable fingerprint of a scene's text and the overrides applied to it (PATH=VALUE,
+/// in order): "fnv1a64:" and 16 hex digits. Any edit to the scene file, and any override
+/// added, removed, changed or moved, changes it. Without overrides it is the text's alone,
+/// as it was before rooms took overrides, so their checkpoints still restore.
+std::string scene_fingerprint(std::string_view scene_text,
+                              std::span<std::string const> overrides = {});
 
 /// The file's text.
 std::string encode_checkpoint(checkpoint const& c);
@@ -92,12 +100,14 @@ std::filesystem::path checkpoint_path(std::filesystem::path const& dir, std::str
 void write_file_atomically(std::filesystem::path const& file, std::string_view text);
 
 /// Reads the checkpoint at `file` when there is one, and checks that it belongs to this
-/// room and its own scene (also when it carries a loaded scene: a changed scene file still
-/// refuses it). Throws checkpoint_error when it exists but cannot be used.
+/// room and its own scene, overrides included (also when it carries a loaded scene: a
+/// changed scene file or override still refuses it). Throws checkpoint_error when it exists
+/// but cannot be used.
 std::optional<checkpoint> read_checkpoint(std::filesystem::path const& file,
                                           std::string const& room,
                                           std::string const& scene_name,
-                                          std::string const& fingerprint);
+                                          std::string const& fingerprint,
+                                          std::span<std::string const> overrides = {});
 
 /// Moves a refused checkpoint aside, to FILE.bad-<unix seconds>; returns the new path.
 std::filesystem::path move_aside(std::filesystem::path const& file);

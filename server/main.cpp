@@ -15,6 +15,7 @@
 #include <spdlog/sinks/stdout_color_sinks.h>
 #include <spdlog/spdlog.h>
 
+#include <algorithm>
 #include <filesystem>
 #include <iostream>
 #include <string>
@@ -55,7 +56,6 @@ int run_headless_command(std::string const& scene_file, std::vector<std::string>
     return 0;
 }
 
-/// "NAME=SCENE" into a room_spec.
 /// The page a server run without --web-root serves: the first of server::page_places() that
 /// holds one, said in the log with where it was found, or none, said with where it looked.
 std::filesystem::path default_web_root(char const* argv0)
@@ -76,12 +76,44 @@ std::filesystem::path default_web_root(char const* argv0)
     return {};
 }
 
+/// "NAME=SCENE" into a room_spec.
 kugel::server::room_spec parse_room(std::string const& text)
 {
     auto const equals = text.find('=');
     if (equals == std::string::npos || equals == 0 || equals + 1 == text.size())
         throw CLI::ValidationError("--room", "expected NAME=SCENE, got '" + text + "'");
     return {text.substr(0, equals), text.substr(equals + 1)};
+}
+
+/// Gives each served room its `--set ROOM:PATH=VALUE` overrides, in the order given; the
+/// rooms are those of --room, or the built-in 'default' without any. A room name has no
+/// '=' and a scene path no ':', so the room is what stands before the last ':' ahead of
+/// the first '=' (a room may be called "lab:2"), and VALUE may hold either. Throws
+/// CLI::ValidationError naming the --set for one without a room or of a room not served.
+void add_overrides(std::vector<kugel::server::room_spec>& rooms,
+                   std::vector<std::string> const& overrides)
+{
+    if (rooms.empty() && !overrides.empty())
+        rooms.push_back({"default", {}}); // the built-in arena scene
+    for (std::string const& text : overrides) {
+        std::string const target = text.substr(0, text.find('='));
+        auto const colon = target.rfind(':');
+        if (colon == std::string::npos)
+            throw CLI::ValidationError("--set " + text,
+                                       "a served room's override names its room, ROOM:PATH=VALUE "
+                                       "(such as --set " + rooms.front().name + ":" + text +
+                                           "); PATH=VALUE alone goes with --headless");
+        std::string const name = text.substr(0, colon);
+        auto const room = std::ranges::find(rooms, name, &kugel::server::room_spec::name);
+        if (room == rooms.end()) {
+            std::string served;
+            for (auto const& r : rooms)
+                served += (served.empty() ? "" : ", ") + r.name;
+            throw CLI::ValidationError("--set " + text,
+                                       "no room '" + name + "' is served (rooms: " + served + ")");
+        }
+        room->overrides.push_back(text.substr(colon + 1));
+    }
 }
 
 int serve(kugel::server::server_options const& options)
@@ -141,16 +173,21 @@ int main(int argc, char** argv)
         ->check(CLI::Range(std::uint64_t{0}, std::uint64_t{1'000'000'000}))
         ->capture_default_str();
     app.add_option("--set", overrides,
-                   "Override a scene field before validation, PATH=VALUE (repeatable), e.g.\n"
-                   "--set integrator=rk4 --set dt=0.001 --set generators.0.count=100000\n"
-                   "--set forces.gravity.softening=0.01. VALUE is JSON, or a plain string.")
+                   "Override a scene field before validation (repeatable). With --headless\n"
+                   "PATH=VALUE, e.g. --set integrator=rk4 --set dt=0.001\n"
+                   "--set generators.0.count=100000 --set forces.gravity.softening=0.01.\n"
+                   "Serving, ROOM:PATH=VALUE overrides a field of room ROOM's scene, e.g.\n"
+                   "--room pile=scenes/pile.json --set pile:collisions.restitution=0.2\n"
+                   "(the built-in room is 'default'); with --state a room restores only from a\n"
+                   "checkpoint made with the same overrides. VALUE is JSON, or a plain string.")
         ->take_all();
     app.add_option("--log-level", log_level, "trace, debug, info, warn, error, critical or off")
         ->check(CLI::IsMember({"trace", "debug", "info", "warn", "error", "critical", "off"}))
         ->capture_default_str();
     app.add_option("--room", rooms,
                    "Host a room NAME=SCENE (repeatable), reached at /ws/NAME; without any,\n"
-                   "one room 'default' with the built-in arena scene at /ws");
+                   "one room 'default' with the built-in arena scene at /ws. --set\n"
+                   "NAME:PATH=VALUE changes a field of room NAME's scene");
     app.add_option("--host", options.host,
                    "Address to listen on. The default takes connections from this machine only;\n"
                    "0.0.0.0 (IPv4) or :: (IPv6) opens the server to the network: then give\n"
@@ -236,7 +273,8 @@ int main(int argc, char** argv)
     app.add_option("--state", state_dir,
                    "Keep each room's world in DIR/ROOM.json: restored at start, checkpointed\n"
                    "atomically every --checkpoint-interval and at SIGTERM/SIGINT. A checkpoint\n"
-                   "of another scene or format, or a corrupt one, stops the start (exit 2)");
+                   "of another scene (its file or --set overrides) or format, or a corrupt one,\n"
+                   "stops the start (exit 2)");
     double checkpoint_interval = 5.0;
     app.add_option("--checkpoint-interval", checkpoint_interval,
                    "Seconds between checkpoints with --state (a kill -9 loses at most this)")
@@ -257,13 +295,14 @@ int main(int argc, char** argv)
     spdlog::set_level(spdlog::level::from_str(log_level));
 
     if (!headless) {
-        if (!scene_file.empty() || !overrides.empty()) {
-            spdlog::error("--scene and --set go with --headless; to serve a scene use --room NAME=FILE");
+        if (!scene_file.empty()) {
+            spdlog::error("--scene goes with --headless; to serve a scene use --room NAME=FILE");
             return 2;
         }
         try {
             for (std::string const& r : rooms)
                 options.rooms.push_back(parse_room(r));
+            add_overrides(options.rooms, overrides);
         } catch (CLI::ValidationError const& e) {
             spdlog::error("{}", e.what());
             return 2;

@@ -9,11 +9,15 @@
 
 namespace kugel::server {
 
-/// A room to host: `--room NAME=SCENE`.
+/// A room to host: `--room NAME=SCENE`, with its `--set NAME:PATH=VALUE` overrides.
 struct room_spec
 {
     std::string name;                 ///< the room's name, as in /ws/NAME
-    std::filesystem::path scene_file; ///< its scene (JSON)
+    std::filesystem::path scene_file; ///< its scene (JSON); empty: the built-in arena scene
+    /// PATH=VALUE, applied to the scene in order before it is validated, as the headless
+    /// `--set` does (scene::parse_scene). They are part of the room's scene: its checkpoints
+    /// record them, and restore only into a room started with the same ones.
+    std::vector<std::string> overrides = {};
 };
 
 /// What one client may do. Every limit has a clear answer when reached (protocol/PROTOCOL.md).

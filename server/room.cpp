@@ -81,7 +81,7 @@ std::chrono::nanoseconds thread_processor_time()
 
 room::room(net::io_context& ticks, net::any_io_executor background, std::string name,
            scene::scene const& s, settings config, std::string scene_fingerprint,
-           std::optional<checkpoint> restored)
+           std::vector<std::string> scene_overrides, std::optional<checkpoint> restored)
     : name_(std::move(name)), settings_(std::move(config)), strand_(net::make_strand(ticks)),
       background_(std::move(background)),
       timer_(strand_),
@@ -89,6 +89,7 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
           std::chrono::duration<double>(1.0 / settings_.tick_rate))),
       checkpoint_timer_(strand_), scene_name_(s.name),
       scene_fingerprint_(std::move(scene_fingerprint)),
+      scene_overrides_(std::move(scene_overrides)),
       loaded_scene_(restored ? restored->loaded_scene : std::nullopt),
       scene_(restored ? restored_scene(s, *restored, checkpoint_file().string()) : s),
       physics_threads_(settings_.physics_threads > 1
@@ -129,6 +130,7 @@ checkpoint room::take_checkpoint() const
     c.room = name_;
     c.scene_name = scene_name_;
     c.scene_fingerprint = scene_fingerprint_;
+    c.scene_overrides = scene_overrides_;
     c.loaded_scene = loaded_scene_;
     c.tick = counters_.ticks;
     c.time = world_.time();

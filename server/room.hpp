@@ -72,15 +72,16 @@ public:
 
     /// Builds the scene's world, or (given a checkpoint of this scene) the checkpoint's
     /// world, ids and tick, in the scene an admin loaded when the checkpoint carries one.
-    /// `scene_fingerprint`, of `s`, is written into this room's checkpoints. Throws
-    /// physics::singular_force_error if it cannot start, checkpoint_error for a checkpoint
-    /// body the world refuses or a loaded scene the scene loader refuses.
+    /// `scene_fingerprint`, of the text of `s` and of the overrides `scene_overrides` it was
+    /// made with (scene_fingerprint()), is written into this room's checkpoints with them.
+    /// Throws physics::singular_force_error if it cannot start, checkpoint_error for a
+    /// checkpoint body the world refuses or a loaded scene the scene loader refuses.
     /// `ticks` runs the room's strand (its ticks, commands and snapshots' copies);
     /// `background` runs what must not hold up a tick (encoding snapshots, writing a
     /// checkpoint).
     room(net::io_context& ticks, net::any_io_executor background, std::string name,
          scene::scene const& s, settings config, std::string scene_fingerprint = {},
-         std::optional<checkpoint> restored = {});
+         std::vector<std::string> scene_overrides = {}, std::optional<checkpoint> restored = {});
 
     std::string const& name() const { return name_; }
     room_counters const& counters() const { return counters_; }
@@ -193,7 +194,8 @@ private:
     bool running_ = false;
     net::steady_timer checkpoint_timer_;
     std::string scene_name_;        ///< the room's own scene (its file)
-    std::string scene_fingerprint_; ///< of the room's own scene's text
+    std::string scene_fingerprint_; ///< of the room's own scene's text and overrides
+    std::vector<std::string> scene_overrides_; ///< PATH=VALUE, the room's own scene's
     /// The scene an admin loaded, in no file: every checkpoint carries it, so that a restart
     /// rebuilds it. None while the room runs its own scene.
     std::optional<embedded_scene> loaded_scene_;

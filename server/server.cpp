@@ -96,14 +96,37 @@ std::string read_text(std::filesystem::path const& file)
     return text.str();
 }
 
+/// A room's own scene, its overrides applied, and the fingerprint of both.
+struct room_scene
+{
+    scene::scene scene;
+    std::string fingerprint;
+};
+
+/// Loads the scene of `r` with its overrides. A scene_error names the room besides the
+/// file, the field and what is wrong with it.
+room_scene load_room_scene(room_spec const& r)
+{
+    try {
+        if (r.scene_file.empty())
+            return {scene::parse_scene(default_scene_text(), "built-in arena scene", r.overrides),
+                    scene_fingerprint(default_scene_text(), r.overrides)};
+        scene::scene s = scene::load_scene(r.scene_file, r.overrides);
+        return {std::move(s), scene_fingerprint(read_text(r.scene_file), r.overrides)};
+    } catch (scene::scene_error const& e) {
+        throw scene::scene_error("room '" + r.name + "': " + e.what());
+    }
+}
+
 /// The room's checkpoint when there is a usable one. One that cannot be used stops the
 /// server (checkpoint_error), or with discard_bad_state is moved aside for a fresh start.
-std::optional<checkpoint> restore_or_discard(server_options const& options, std::string const& room,
+std::optional<checkpoint> restore_or_discard(server_options const& options, room_spec const& r,
                                              scene::scene const& s, std::string const& fingerprint)
 {
+    std::string const& room = r.name;
     std::filesystem::path const file = checkpoint_path(options.state_dir, room);
     try {
-        std::optional<checkpoint> c = read_checkpoint(file, room, s.name, fingerprint);
+        std::optional<checkpoint> c = read_checkpoint(file, room, s.name, fingerprint, r.overrides);
         if (c && c->bodies.size() > options.max_bodies)
             throw checkpoint_error(fmt::format("checkpoint {}: it holds {} bodies, more than --max-bodies {}",
                                                file.string(), c->bodies.size(), options.max_bodies));
@@ -149,20 +172,24 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
             throw std::invalid_argument("--state " + options.state_dir.string() +
                                         ": not a directory that can be created (" + ec.message() + ")");
     }
-    auto const add_room = [&](std::string const& name, scene::scene const& s,
-                              std::string_view scene_text) {
+    auto const add_room = [&](room_spec const& r) {
+        std::string const& name = r.name;
         if (state_->rooms.contains(name))
             throw std::invalid_argument("room '" + name + "' is given twice");
-        std::string const fingerprint = scene_fingerprint(scene_text);
+        auto const [s, fingerprint] = load_room_scene(r);
         std::optional<checkpoint> restored;
         if (!options.state_dir.empty())
-            restored = restore_or_discard(options, name, s, fingerprint);
+            restored = restore_or_discard(options, r, s, fingerprint);
         auto& ticks = *state_->room_contexts.emplace_back(std::make_unique<net::io_context>(1));
         state_->room_work.push_back(net::make_work_guard(ticks));
         state_->rooms.emplace(name, std::make_shared<room>(ticks, state_->io.get_executor(), name,
-                                                           s, config, fingerprint,
+                                                           s, config, fingerprint, r.overrides,
                                                            std::move(restored)));
-        spdlog::info("room '{}': scene '{}', {} bodies, dt {} s", name, s.name, s.body_count(), s.dt);
+        std::string overridden;
+        for (std::string const& o : r.overrides)
+            overridden += (overridden.empty() ? " (with " : ", ") + o;
+        spdlog::info("room '{}': scene '{}'{}, {} bodies, dt {} s", name, s.name,
+                     overridden.empty() ? "" : overridden + ")", s.body_count(), s.dt);
         // Each tick advances the scene's dt: a tick rate other than 1/dt runs the world faster
         // or slower than the wall clock, which the user should hear about once.
         if (double const speed = options.tick_rate * s.dt; std::abs(speed - 1.0) > 1e-9)
@@ -171,10 +198,9 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
                          name, options.tick_rate, s.dt, speed, 1.0 / s.dt, 1.0 / options.tick_rate);
     };
     if (options.rooms.empty())
-        add_room("default", scene::parse_scene(default_scene_text(), "built-in arena scene"),
-                 default_scene_text());
+        add_room({"default", {}});
     for (room_spec const& r : options.rooms)
-        add_room(r.name, scene::load_scene(r.scene_file), read_text(r.scene_file));
+        add_room(r);
 
     auto routes = std::make_shared<http_routes>();
     // Canonical, so that every file served can be checked to lie inside it (file_for).

@@ -147,6 +147,74 @@ TEST(ServerCommand, HelpAndVersionExitZeroAndEveryBadCommandLineExitsTwoNamingIt
     }
 }
 
+/// The message of the log's first error line ("[time] [kugel] [error] MESSAGE"), or "".
+std::string error_message(std::string const& log)
+{
+    std::string const tag = "[error] ";
+    auto const at = log.find(tag);
+    if (at == std::string::npos)
+        return "";
+    auto const end = log.find('\n', at);
+    return log.substr(at + tag.size(), end == std::string::npos ? end : end - at - tag.size());
+}
+
+// A served room's bad override (--set ROOM:PATH=VALUE) stops the start with exit 2 before
+// anything is served, and its message names the room, the field and what is wrong: for an
+// override the scene refuses, the headless --set's own message after the room's name.
+TEST(ServerCommand, ABadRoomOverrideExitsTwoNamingTheRoomTheFieldAndWhy)
+{
+    std::string const pile = scene("pile.json");
+    struct bad
+    {
+        std::string set;
+        std::vector<std::string> named; ///< what the message must name
+    };
+    std::vector<bad> const command_line{
+        {"lobby:dt=0.01", {"--set lobby:dt=0.01: ", "no room 'lobby' is served (rooms: pile)"}},
+        {"dt=0.01", {"--set dt=0.01: ", "ROOM:PATH=VALUE", "--set pile:dt=0.01", "--headless"}},
+    };
+    for (bad const& c : command_line) {
+        auto const r = run_server("--port 0 --room pile=" + pile + " --set " + c.set, true);
+        EXPECT_EQ(r.exit_code, 2) << c.set << "\n" << r.out;
+        EXPECT_EQ(r.out.find("serving on"), std::string::npos) << r.out;
+        for (std::string const& part : c.named)
+            EXPECT_NE(error_message(r.out).find(part), std::string::npos) << c.set << "\n" << r.out;
+    }
+    auto const no_rooms = run_server("--port 0 --set lobby:dt=0.01", true);
+    EXPECT_EQ(no_rooms.exit_code, 2);
+    EXPECT_NE(error_message(no_rooms.out).find("(rooms: default)"), std::string::npos)
+        << no_rooms.out;
+
+    // Refused by the scene: a bad path, a field that does not exist, a bad value.
+    std::vector<bad> const scene_refuses{
+        {"generators.1.count=10", {"--set generators.1.count=10: index 1 is out of range"}},
+        {"collisions.restitutio=0.2", {"/collisions/restitutio: unknown field"}},
+        {"collisions.restitution=2", {"(with --set overrides): /collisions/restitution: "}},
+        {"integrator=rk5", {"/integrator: unknown integrator 'rk5'"}},
+    };
+    for (bad const& c : scene_refuses) {
+        auto const headless = run_server("--headless --scene " + pile + " --set " + c.set, true);
+        ASSERT_EQ(headless.exit_code, 2) << headless.out;
+        std::string const expected = error_message(headless.out);
+        ASSERT_NE(expected, "") << headless.out;
+        for (std::string const& part : c.named)
+            EXPECT_NE(expected.find(part), std::string::npos) << expected;
+
+        auto const served =
+            run_server("--port 0 --room lobby=" + pile + " --room pile=" + pile + " --set pile:" + c.set, true);
+        EXPECT_EQ(served.exit_code, 2) << served.out;
+        EXPECT_EQ(served.out.find("serving on"), std::string::npos) << served.out;
+        EXPECT_EQ(error_message(served.out), "room 'pile': " + expected) << served.out;
+    }
+
+    // The built-in room by its name, its scene named as the headless run cannot.
+    auto const arena = run_server("--port 0 --set default:dt=-1", true);
+    EXPECT_EQ(arena.exit_code, 2);
+    EXPECT_EQ(error_message(arena.out),
+              "room 'default': built-in arena scene (with --set overrides): /dt: must be > 0, got -1")
+        << arena.out;
+}
+
 TEST(HeadlessCommand, BadSceneExitsNonZeroWithNoSummary)
 {
     auto const r = run_server("--scene " + scene("kepler.json") + " --headless --set integrator=rk5");

@@ -168,7 +168,8 @@ TEST(Persistence, CheckpointRestoresBitIdenticalStateIdsAndTick)
 
     // A room made from it (never started, so nothing else touches it) holds the same state.
     net::io_context io;
-    room restored(io, io.get_executor(), "default", arena(), {}, saved.scene_fingerprint, saved);
+    room restored(io, io.get_executor(), "default", arena(), {}, saved.scene_fingerprint,
+                  saved.scene_overrides, saved);
     checkpoint const again = restored.take_checkpoint();
     expect_identical(saved, again);
     EXPECT_EQ(encode_checkpoint(again), text); // byte for byte
@@ -408,7 +409,8 @@ TEST(Persistence, ALoadedSceneIsCheckpointedAndARestartRunsItWithTheSameBodiesId
     // A room made from it runs the loaded scene with the checkpoint's state, bit for bit.
     net::io_context io;
     scene::scene const still = scene::load_scene(dir / "still.scene.json");
-    room restored(io, io.get_executor(), "default", still, {}, saved.scene_fingerprint, saved);
+    room restored(io, io.get_executor(), "default", still, {}, saved.scene_fingerprint,
+                  saved.scene_overrides, saved);
     checkpoint const again = restored.take_checkpoint();
     expect_identical(saved, again);
     EXPECT_EQ(encode_checkpoint(again), text); // byte for byte, the loaded scene included
@@ -578,6 +580,110 @@ TEST(Persistence, ATamperedLoadedSceneIsRefusedAndLeftUntouched)
     EXPECT_EQ(aside, 1u);
 }
 
+// The fingerprint of a room's own scene covers its overrides: each one, its value and their
+// order (a later override of the same field wins). Without overrides it is the text's alone,
+// what checkpoints made before rooms took overrides hold.
+TEST(Persistence, TheScenesFingerprintCoversItsOverridesAndTheirOrder)
+{
+    std::string const text = still_scene().dump();
+    std::vector<std::string> const both{"dt=0.03125", "substeps=2"};
+    std::set<std::string> const prints{
+        scene_fingerprint(text),
+        scene_fingerprint(text, both),
+        scene_fingerprint(text, std::vector<std::string>{"substeps=2", "dt=0.03125"}),
+        scene_fingerprint(text, std::vector<std::string>{"dt=0.03125"}),
+        scene_fingerprint(text, std::vector<std::string>{"dt=0.0625", "substeps=2"}),
+        // An override does not run into the text or into the next one.
+        scene_fingerprint(text + "dt=0.03125"),
+        scene_fingerprint(text, std::vector<std::string>{"dt=0.03125substeps=2"}),
+        scene_fingerprint(text, std::vector<std::string>{"dt=0.03125", "", "substeps=2"}),
+    };
+    EXPECT_EQ(prints.size(), 8u);
+    EXPECT_EQ(scene_fingerprint(text, {}), scene_fingerprint(text));
+}
+
+// A room's overrides are part of its scene. Its checkpoints record them, and a restart with
+// the same ones restores it; one with none, another value or another order is refused,
+// naming both, and the file is left as it is. A checkpoint made without overrides is
+// refused by a room started with some.
+TEST(Persistence, ARoomRestoresOnlyFromACheckpointMadeWithTheSameOverrides)
+{
+    fs::path const dir = fresh_dir("overrides");
+    fs::path const scene_file = write_scene(dir, "still", still_scene());
+    std::vector<std::string> const overrides{"dt=0.03125", "forces.uniform_field.g=[0, 0, -1]"};
+    auto const started_with = [&](std::vector<std::string> const& these) {
+        server_options o;
+        o.rooms.push_back({"default", scene_file, these});
+        o.state_dir = dir;
+        o.checkpoint_interval = std::chrono::hours(1); // only the final one
+        return o;
+    };
+    fs::path const file = checkpoint_path(dir, "default");
+    std::uint64_t spawned = 0;
+    {
+        test_support::in_process_server s(started_with(overrides));
+        ws_client c(s.port(), "/ws");
+        EXPECT_EQ(c.next("welcome").at("dt"), 0.03125);
+        c.send(spawn_at(1, {1.0, 1.0, 1.0}));
+        spawned = ack_of(c, 1);
+        snapshot_at_or_after(c, 10);
+        s.stop();
+    }
+    std::string const text = read_text(file);
+    checkpoint const saved = decode_checkpoint(text, file.string());
+    EXPECT_EQ(saved.scene_name, "still");
+    EXPECT_EQ(saved.scene_overrides, overrides);
+    EXPECT_EQ(json::parse(text).at("scene").at("overrides"), json(overrides));
+    EXPECT_EQ(saved.scene_fingerprint, scene_fingerprint(read_text(scene_file), overrides));
+
+    std::string const made_with =
+        R"('still' with overrides ["dt=0.03125","forces.uniform_field.g=[0, 0, -1]"])";
+    std::vector<std::vector<std::string>> const others{
+        {},
+        {"dt=0.0625", overrides[1]},
+        {overrides[1], overrides[0]},
+    };
+    for (std::vector<std::string> const& other : others) {
+        SCOPED_TRACE(json(other).dump());
+        std::string const message = refusal(dir, text, started_with(other));
+        EXPECT_NE(message.find("/scene: it is of scene " + made_with), std::string::npos) << message;
+        EXPECT_NE(message.find("the room was started with other overrides"), std::string::npos)
+            << message;
+        EXPECT_NE(message.find(other.empty() ? "'still' without overrides"
+                                             : "'still' with overrides " + json(other).dump()),
+                  std::string::npos)
+            << message;
+    }
+    json tampered = json::parse(text);
+    tampered["scene"]["overrides"] = json::array({0.03125});
+    EXPECT_NE(refusal(dir, tampered.dump(), started_with(overrides)).find("/scene/overrides: must be an array of strings"),
+              std::string::npos);
+
+    // The same overrides: restored (the spawned body and the tick), the overrides in force.
+    write_text(file, text);
+    {
+        test_support::in_process_server s(started_with(overrides));
+        ws_client c(s.port(), "/ws");
+        EXPECT_EQ(c.next("welcome").at("dt"), 0.03125);
+        json const first = c.next("snapshot");
+        EXPECT_GT(first.at("tick").get<std::uint64_t>(), saved.tick);
+        EXPECT_EQ(ids_of(first), (std::vector<std::uint64_t>{1, spawned}));
+        s.stop();
+    }
+    EXPECT_EQ(decode_checkpoint(read_text(file), file.string()).scene_overrides, overrides);
+
+    // A checkpoint of the room without overrides: refused by the room with them.
+    fs::remove(file);
+    {
+        test_support::in_process_server s(started_with({}));
+    }
+    std::string const plain = read_text(file);
+    EXPECT_FALSE(json::parse(plain).at("scene").contains("overrides"));
+    std::string const message = refusal(dir, plain, started_with(overrides));
+    EXPECT_NE(message.find("it is of scene 'still' without overrides"), std::string::npos) << message;
+    EXPECT_NE(message.find("the room's scene is " + made_with), std::string::npos) << message;
+}
+
 fs::path log_file(std::string const& name)
 {
     return fs::path(testing::TempDir()) / ("kugel_persistence_test_" + name + ".log");
@@ -719,6 +825,45 @@ TEST(PersistenceProcess, ABadCheckpointStopsTheStartWithExitTwo)
     EXPECT_NE(p.output().find(file.string()), std::string::npos) << p.output();
     EXPECT_NE(p.output().find("--discard-bad-state"), std::string::npos) << p.output();
     EXPECT_EQ(read_text(file), "{\"truncated\": ");
+}
+
+// The same from the command line: a room started with --set ROOM:PATH=VALUE restarts from its
+// checkpoint with the same --set, and without it stops the start with exit 2, saying why.
+TEST(PersistenceProcess, ARoomStartedWithoutTheOverridesOfItsCheckpointExitsTwo)
+{
+    fs::path const dir = fresh_dir("overrides_process");
+    fs::path const file = checkpoint_path(dir, "still");
+    std::vector<std::string> const plain{"--room", "still=" + write_scene(dir, "still", still_scene()).string(),
+                                         "--state", dir.string(), "--checkpoint-interval", "3600"};
+    std::vector<std::string> overridden = plain;
+    overridden.insert(overridden.end(), {"--set", "still:dt=0.03125"});
+    {
+        test_support::server_child p(KUGEL_SERVER_EXE, overridden, log_file("overrides_first"));
+        ws_client c(p.port(), "/ws/still");
+        EXPECT_EQ(c.next("welcome").at("dt"), 0.03125);
+        snapshot_at_or_after(c, 5);
+        EXPECT_EQ(p.stop(), 0) << p.log();
+    }
+    std::string const text = read_text(file);
+    checkpoint const saved = decode_checkpoint(text, file.string());
+    EXPECT_EQ(saved.scene_overrides, std::vector<std::string>{"dt=0.03125"});
+
+    std::vector<std::string> args = plain;
+    args.insert(args.begin(), {"--port", "0"});
+    test_support::child_process refused(KUGEL_SERVER_EXE, args, log_file("overrides_refused"));
+    EXPECT_EQ(refused.wait(std::chrono::seconds(30)), 2);
+    EXPECT_NE(refused.output().find(file.string() + R"(: /scene: it is of scene 'still' with overrides ["dt=0.03125"])"),
+              std::string::npos)
+        << refused.output();
+    EXPECT_NE(refused.output().find("the room was started with other overrides"), std::string::npos)
+        << refused.output();
+    EXPECT_EQ(read_text(file), text);
+
+    test_support::server_child p(KUGEL_SERVER_EXE, overridden, log_file("overrides_restored"));
+    EXPECT_NE(p.log().find("room 'still': restored from"), std::string::npos) << p.log();
+    ws_client c(p.port(), "/ws/still");
+    EXPECT_EQ(c.next("welcome").at("dt"), 0.03125);
+    EXPECT_GT(c.next("snapshot").at("tick").get<std::uint64_t>(), saved.tick);
 }
 
 } // namespace

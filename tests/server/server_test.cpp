@@ -684,6 +684,48 @@ TEST(ServerProcess, WithoutAWebRootServesThePageItFindsAndSaysWhere)
     }
 }
 
+// --set ROOM:PATH=VALUE changes one field of one served room's scene: the room's welcome shows
+// it and its world runs it, while another room of the same scene file runs the file as it is.
+// In the still scene a body of 2 kg rests at the origin; overridden, dt is 1/32 s and a field
+// of 2 m/s^2 pulls it down, so that after n ticks (semi-implicit Euler) its velocity is
+// exactly -n/16 m/s and the clock n/32 s.
+TEST(ServerProcess, ARoomsOverridesShowInItsWelcomeAndItsWorldAndNowhereElse)
+{
+    std::string const file = write_scene("overridden", still_scene()).string();
+    test_support::server_child p(KUGEL_SERVER_EXE,
+                                 {"--room", "falling=" + file, "--room", "still=" + file, "--set",
+                                  "falling:dt=0.03125", "--set",
+                                  R"(falling:forces={"uniform_field": {"g": [0, 0, -2]}})"},
+                                 log_file("overridden"));
+    EXPECT_NE(p.log().find("room 'falling': scene 'still' (with dt=0.03125, forces="),
+              std::string::npos)
+        << p.log();
+    client falling(p.port(), "/ws/falling");
+    EXPECT_EQ(falling.next("welcome").at("dt"), 0.03125);
+    json const fell = falling.snapshot_at_or_after(4);
+    double const n = fell.at("tick").get<double>();
+    EXPECT_EQ(fell.at("time"), n / 32.0);
+    EXPECT_EQ(column3(fell, "velocity", 0), (std::array<double, 3>{0.0, 0.0, -n / 16.0}));
+
+    client still(p.port(), "/ws/still");
+    EXPECT_EQ(still.next("welcome").at("dt"), 1.0 / 64.0);
+    json const rested = still.snapshot_at_or_after(4);
+    EXPECT_EQ(rested.at("time"), rested.at("tick").get<double>() / 64.0);
+    EXPECT_EQ(column3(rested, "velocity", 0), (std::array<double, 3>{0.0, 0.0, 0.0}));
+}
+
+// Without --room, the built-in room is 'default' and takes overrides by that name.
+TEST(ServerProcess, TheDefaultRoomTakesOverridesByItsName)
+{
+    test_support::server_child p(KUGEL_SERVER_EXE, {"--set", "default:dt=0.03125"},
+                                 log_file("default_overridden"));
+    client c(p.port(), "/ws");
+    json const welcome = c.next("welcome");
+    EXPECT_EQ(welcome.at("room"), "default");
+    EXPECT_EQ(welcome.at("scene").at("name"), "arena");
+    EXPECT_EQ(welcome.at("dt"), 0.03125);
+}
+
 TEST(ServerProcess, RefusesABadRoomSceneWithExitTwoAndTheReason)
 {
     json bad = still_scene();
