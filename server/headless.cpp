@@ -16,12 +16,15 @@ namespace {
 
 nlohmann::ordered_json to_json(physics::vec3 const& v) { return {v.x(), v.y(), v.z()}; }
 
-/// (E_final − E_initial) / scale, where scale = |K₀| + |U₀| (the size of the energies that
-/// were exchanged), which is zero only when nothing moves and nothing attracts; then the
-/// drift is reported as 0 if the energy is still 0 and as the absolute change otherwise.
-double relative_drift(physics::diagnostics const& initial, physics::diagnostics const& final)
+/// (E_final − E_initial) / scale, where scale is the energy the run moved about: the largest
+/// kinetic energy of any step plus the change of the potential energy from start to end.
+/// Not |K₀| + |U₀|: the potential is measured from the origin, so a ball bouncing 1e9 m from
+/// it would have a scale of m·g·1e9 and a drift a billion times smaller than its error. Zero
+/// only when nothing moved; the drift is then the absolute change.
+double relative_drift(physics::diagnostics const& initial, physics::diagnostics const& final, double most_kinetic)
 {
-    double const scale = std::abs(initial.kinetic) + std::abs(initial.potential);
+    double const scale = std::max({initial.kinetic, final.kinetic, most_kinetic}) +
+                         std::abs(final.potential - initial.potential);
     double const change = final.total - initial.total;
     return scale > 0.0 ? change / scale : change;
 }
@@ -51,14 +54,21 @@ nlohmann::ordered_json force_methods(scene::scene const& s, physics::world const
     return methods;
 }
 
-/// The first body (in slot order) whose position or velocity is not finite.
-std::optional<physics::body_id> first_not_finite(physics::world const& w)
+/// The first body (in slot order) whose position or velocity is not finite, and the kinetic
+/// energy of the dynamic bodies before it (all of them when none is): one pass after a step.
+std::optional<physics::body_id> first_not_finite(physics::world const& w, double& kinetic)
 {
     auto const x = w.bodies().positions();
     auto const v = w.bodies().velocities();
-    for (std::size_t i = 0; i < x.size(); ++i)
+    auto const inverse_mass = w.bodies().inverse_masses();
+    auto const mass = w.bodies().masses();
+    kinetic = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i) {
         if (!(x[i].allFinite() && v[i].allFinite()))
             return w.bodies().ids()[i];
+        if (inverse_mass[i] > 0.0)
+            kinetic += 0.5 * mass[i] * v[i].squaredNorm();
+    }
     return std::nullopt;
 }
 
@@ -112,17 +122,20 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
         summary["broadphase"] = physics::name(s.collisions.broadphase);
 
     std::uint64_t completed = 0;
+    double most_kinetic = initial.kinetic; // over the steps, for the drift's scale
     auto const started = std::chrono::steady_clock::now();
     try {
         for (; completed < steps; ++completed) {
             world.step(s.dt);
-            if (auto const bad = first_not_finite(world)) {
+            double kinetic = 0.0;
+            if (auto const bad = first_not_finite(world, kinetic)) {
                 ++completed; // the step ran; what it left is reported below
                 summary["error"] = "step " + std::to_string(completed) + " left body " + std::to_string(physics::to_number(*bad)) +
                                    " with a position or velocity that is not finite (dt " + format(s.dt) +
                                    " s): the run stops there";
                 break;
             }
+            most_kinetic = std::max(most_kinetic, kinetic);
         }
     } catch (physics::singular_force_error const& e) {
         summary["error"] = e.what();
@@ -156,7 +169,7 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
     summary["energy_initial"] = initial.total;
     summary["energy_final"] = final ? nlohmann::ordered_json(final->total) : nlohmann::ordered_json();
     summary["energy_rel_drift"] =
-        final ? nlohmann::ordered_json(relative_drift(initial, *final)) : nlohmann::ordered_json();
+        final ? nlohmann::ordered_json(relative_drift(initial, *final, most_kinetic)) : nlohmann::ordered_json();
     summary["kinetic_final"] = motion.kinetic;
     summary["largest_speed_final"] = motion.largest_speed;
     summary["potential_final"] = final ? nlohmann::ordered_json(final->potential) : nlohmann::ordered_json();
