@@ -101,6 +101,8 @@ BENCHMARK_CAPTURE(gas_step, continuous, collision_mode::continuous)
 
 BENCHMARK_CAPTURE(gas_step_threads, discrete, collision_mode::discrete)
     ->ArgsProduct({{2}, {1000, 10000, 100000, 1000000}})->Unit(benchmark::kMillisecond)->UseRealTime();
+BENCHMARK_CAPTURE(gas_step_threads, continuous, collision_mode::continuous)
+    ->ArgsProduct({{2}, {1000, 10000, 100000}})->Unit(benchmark::kMillisecond)->UseRealTime();
 BENCHMARK(gas_step_mixed)->ArgsProduct({{1, 2}, {100000, 1000000}})->Unit(benchmark::kMillisecond)->UseRealTime();
 
 } // namespace

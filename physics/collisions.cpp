@@ -11,7 +11,7 @@ namespace kugel::physics {
 
 void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                        double h, collision_workspace& workspace, collision_stats& stats);
+                        double h, collision_workspace& workspace, collision_stats& stats, parallel_for* loops);
 
 namespace {
 
@@ -40,7 +40,7 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
         resolve_discrete(settings, walls, obstacles, bodies, h, workspace.discrete, stats, timings, loops);
     } else if (settings.mode == collision_mode::continuous) {
         phase_clock clock(timings);
-        resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats);
+        resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats, loops);
         clamp_to_walls(walls, bodies);
         clock.lap(step_phase::continuous);
     }

@@ -8,7 +8,8 @@
 
 // The times of impact lean on fma, which the library computes in software where the
 // compiler may not assume the instruction; it is exactly rounded either way, so a version
-// compiled for processors that have it gives the same bits, and is chosen at load.
+// compiled for processors that have it gives the same bits, and is chosen at load. The
+// helpers below are inlined into both versions, so that the fast one has them too.
 #if defined(__GNUC__) && !defined(__clang__) && defined(__x86_64__)
 #define KUGEL_WITH_FMA_WHERE_PRESENT [[gnu::target_clones("fma", "default")]]
 #else
@@ -26,14 +27,14 @@ struct double_double
     double lo;
 };
 
-double_double two_sum(double a, double b)
+[[gnu::always_inline]] inline double_double two_sum(double a, double b)
 {
     double const s = a + b;
     double const z = s - a;
     return {s, (a - (s - z)) + (b - z)};
 }
 
-double_double two_product(double a, double b)
+[[gnu::always_inline]] inline double_double two_product(double a, double b)
 {
     double const p = a * b;
     return {p, std::fma(a, b, -p)};
@@ -43,7 +44,7 @@ double_double two_product(double a, double b)
 /// Rump and Oishi's Dot2). Used where the terms nearly cancel: the squared gap between two
 /// nearly touching spheres, the distance of a sphere resting on a wall, the sign of d·v.
 template <std::size_t n>
-double accurate_dot(std::array<double, n> const& x, std::array<double, n> const& y)
+[[gnu::always_inline]] inline double accurate_dot(std::array<double, n> const& x, std::array<double, n> const& y)
 {
     double_double const first = two_product(x[0], y[0]);
     double sum = first.hi;
@@ -81,7 +82,7 @@ std::array<double, 3> components(vec3 const& v)
 
 /// a·b − c·d to within 1.5 units in the last place (Kahan's algorithm with one fma): the
 /// discriminant of a quadratic without cancellation.
-double difference_of_products(double a, double b, double c, double d)
+[[gnu::always_inline]] inline double difference_of_products(double a, double b, double c, double d)
 {
     double const cd = c * d;
     double const error = std::fma(-c, d, cd);

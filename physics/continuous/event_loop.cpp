@@ -60,9 +60,9 @@ class event_loop
 public:
     event_loop(collision_settings const& settings, std::span<wall const> walls,
                std::span<obstacle const> obstacles, collision_bodies const& bodies, double h,
-               continuous::workspace& ws, collision_stats& stats)
+               continuous::workspace& ws, collision_stats& stats, parallel_for* loops)
         : settings_(settings), walls_(walls), obstacles_(obstacles), b_(bodies), h_(h), ws_(ws),
-          stats_(stats)
+          stats_(stats), loops_(loops)
     {
         for (std::size_t k = 0; k < walls.size() && k < facings_.size(); ++k) {
             vec3 const& n = walls[k].surface.normal;
@@ -151,6 +151,8 @@ private:
         return ws_.events_of[i]++ < settings_.max_events_per_body;
     }
 
+    /// Each sphere's path and its box over the whole step, and its walls' and boxes' events:
+    /// chunks of spheres at a time (on the lent threads), each into a list of its own.
     void start_paths()
     {
         std::size_t const n = b_.x.size();
@@ -162,19 +164,36 @@ private:
         ws_.events_of.assign(n, 0);
         ws_.members.clear();
         changes_ = 0;
-        for (std::size_t i = 0; i < n; ++i) {
-            if (b_.radius[i] <= 0.0)
-                continue; // point masses never collide and keep the integrator's result
-            vec3 const a = is_dynamic(static_cast<std::uint32_t>(i)) ? vec3((b_.v[i] - b_.v0[i]) / h_)
-                                                                     : vec3(vec3::Zero());
-            auto const body = static_cast<std::uint32_t>(i);
-            body_path const& p = ws_.paths[i] = body_path{b_.x0[i], b_.v0[i], a, 0.0};
-            ws_.free_acceleration[i] = a;
-            ws_.members.push_back(body);
-            // the path's box over the whole step: its walls' test, and the first slice's box
-            ws_.path_box[i] = p.swept_box(h_, b_.radius[i]);
-            predict_static(body, 0.0, p, ws_.path_box[i]);
+        for (std::size_t i = 0; i < n; ++i)
+            if (b_.radius[i] > 0.0) // point masses never collide and keep the integrator's result
+                ws_.members.push_back(static_cast<std::uint32_t>(i));
+        ws_.found.resize(std::max(ws_.found.size(), chunk_count(ws_.members.size())));
+        run_chunks(loops_, ws_.members.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+            std::vector<event>& found = ws_.found[chunk];
+            for (std::size_t k = begin; k < end; ++k) {
+                std::uint32_t const i = ws_.members[k];
+                vec3 const a = is_dynamic(i) ? vec3((b_.v[i] - b_.v0[i]) / h_) : vec3(vec3::Zero());
+                body_path const& p = ws_.paths[i] = body_path{b_.x0[i], b_.v0[i], a, 0.0};
+                ws_.free_acceleration[i] = a;
+                // the path's box over the whole step: its walls' test, and the first slice's box
+                ws_.path_box[i] = p.swept_box(h_, b_.radius[i]);
+                predict_static(i, 0.0, p, ws_.path_box[i], &found);
+            }
+        });
+        queue_found(chunk_count(ws_.members.size()));
+    }
+
+    /// Moves the events of the first `lists` lists found into the queue.
+    void queue_found(std::size_t lists)
+    {
+        std::size_t added = 0;
+        for (std::size_t c = 0; c < lists; ++c) {
+            ws_.queue.insert(ws_.queue.end(), ws_.found[c].begin(), ws_.found[c].end());
+            added += ws_.found[c].size();
+            ws_.found[c].clear();
         }
+        if (added > 0)
+            std::make_heap(ws_.queue.begin(), ws_.queue.end(), std::greater<>{});
     }
 
     std::size_t slice_count() const
@@ -186,27 +205,43 @@ private:
             reach += b_.radius[i];
         }
         double const slices = std::ceil(travel / (slice_reach * reach));
-        return slices >= static_cast<double>(most_slices) ? most_slices
-                                                          : std::max<std::size_t>(1, static_cast<std::size_t>(slices));
+        // One slice when nothing moves or there is nothing to move (0/0), or a path is not
+        // finite (the caller's business, not a reason to loop).
+        if (!(slices > 1.0))
+            return 1;
+        return slices >= static_cast<double>(most_slices) ? most_slices : static_cast<std::size_t>(slices);
     }
 
     /// Each path's box over the slice, from where it is at the slice's start (or from its last
     /// change).
     void file_boxes(double from)
     {
-        for (std::uint32_t i : ws_.members) {
-            body_path const& p = ws_.paths[i];
-            ws_.path_box[i] = (p.t >= from ? p : path_from(i, from)).swept_box(slice_end_, b_.radius[i]);
-        }
+        run_chunks(loops_, ws_.members.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+            for (std::size_t k = begin; k < end; ++k) {
+                std::uint32_t const i = ws_.members[k];
+                body_path const& p = ws_.paths[i];
+                ws_.path_box[i] = (p.t >= from ? p : path_from(i, from)).swept_box(slice_end_, b_.radius[i]);
+            }
+        });
     }
 
-    /// Files every path's box and predicts every pair whose boxes overlap.
+    /// Files every path's box and predicts every pair whose boxes overlap: layers of the grid
+    /// at a time (on the lent threads), each into a list of its own. The queue orders events
+    /// by time and indices alone, so whichever list found an event, it is taken in its place.
     void start_slice()
     {
         ws_.grid.reset(ws_.path_box, ws_.members);
-        ws_.grid.overlapping_pairs(ws_.pairs);
-        for (auto const& [i, j] : ws_.pairs)
-            predict_between(i, j);
+        std::size_t const layers = ws_.grid.layers();
+        std::size_t const parts = loops_ == nullptr ? 1 : std::min<std::size_t>(layers, 16);
+        ws_.pairs.resize(std::max(ws_.pairs.size(), parts));
+        ws_.found.resize(std::max(ws_.found.size(), parts));
+        run_loop(loops_, parts, [&](std::size_t part) {
+            auto& pairs = ws_.pairs[part];
+            ws_.grid.overlapping_pairs(layers * part / parts, layers * (part + 1) / parts, pairs);
+            for (auto const& [i, j] : pairs)
+                predict_between(i, j, &ws_.found[part]);
+        });
+        queue_found(parts);
         // The boxes too large for a cell: against those that fit near them, and among themselves.
         auto const listed = ws_.grid.listed_at_reset();
         if (listed.empty())
@@ -217,25 +252,25 @@ private:
             ws_.listed_boxes.push_back(box);
             ws_.grid.for_each_filed_near(box, [&](std::uint32_t j) {
                 if (overlaps(box, ws_.path_box[j]))
-                    predict_between(i, j);
+                    predict_between(i, j, nullptr);
             });
         }
         find_overlapping_pairs(broadphase_kind::uniform_grid, ws_.listed_boxes, ws_.listed_pairs, ws_.broadphase);
         for (box_pair const& p : ws_.listed_pairs)
-            predict_between(listed[p.a], listed[p.b]);
+            predict_between(listed[p.a], listed[p.b], nullptr);
     }
 
     /// Predicts i and j from where the later of their paths changed, that body first (the
     /// lower slot when neither changed in this step): what predict_body did when that path
     /// changed, so the same event, bit for bit, whenever it is found.
-    void predict_between(std::uint32_t i, std::uint32_t j)
+    void predict_between(std::uint32_t i, std::uint32_t j, std::vector<event>* into)
     {
         if (!is_dynamic(i) && !is_dynamic(j))
             return;
         std::uint32_t const ci = ws_.changed[i], cj = ws_.changed[j];
         if (cj > ci || (cj == ci && j < i))
             std::swap(i, j);
-        predict_pair(i, j, ws_.paths[i].t);
+        predict_pair(i, j, ws_.paths[i].t, into);
     }
 
     /// After body i's path changed at time `now`: its contacts with everything.
@@ -277,10 +312,16 @@ private:
         return p;
     }
 
-    void push(double time, event_kind kind, std::uint32_t body, std::uint32_t other)
+    /// Queues an event, or adds it to `into` when given (a list found on a lent thread).
+    void push(double time, event_kind kind, std::uint32_t body, std::uint32_t other, std::vector<event>* into)
     {
         std::uint32_t const other_version = kind == event_kind::pair ? ws_.version[other] : 0;
-        ws_.queue.push_back({time, kind, body, other, ws_.version[body], other_version});
+        event const e{time, kind, body, other, ws_.version[body], other_version};
+        if (into != nullptr) {
+            into->push_back(e);
+            return;
+        }
+        ws_.queue.push_back(e);
         std::push_heap(ws_.queue.begin(), ws_.queue.end(), std::greater<>{});
     }
 
@@ -290,7 +331,7 @@ private:
                (e.kind != event_kind::pair || ws_.version[e.other] == e.other_version);
     }
 
-    void predict_pair(std::uint32_t i, std::uint32_t j, double now)
+    void predict_pair(std::uint32_t i, std::uint32_t j, double now, std::vector<event>* into = nullptr)
     {
         if (!is_dynamic(i) && !is_dynamic(j))
             return;
@@ -318,7 +359,7 @@ private:
                 [&](double s) { return (v0 + s * a).norm() + a_norm * (limit - s); });
         }
         if (t)
-            push(now + *t, event_kind::pair, i, j);
+            push(now + *t, event_kind::pair, i, j, into);
     }
 
     void predict_static(std::uint32_t i, double now)
@@ -331,7 +372,8 @@ private:
     }
 
     /// The same, given i's path from now and its box to the step's end.
-    void predict_static(std::uint32_t i, double now, body_path const& p, aabb const& swept)
+    void predict_static(std::uint32_t i, double now, body_path const& p, aabb const& swept,
+                        std::vector<event>* into = nullptr)
     {
         if (!is_dynamic(i))
             return;
@@ -353,7 +395,7 @@ private:
             if (nearest > surface.offset)
                 continue;
             if (auto t = plane_time_of_impact(surface, r, p.x, p.v, p.a, limit))
-                push(now + *t, event_kind::wall, i, k);
+                push(now + *t, event_kind::wall, i, k, into);
         }
         if (obstacles_.empty())
             return;
@@ -371,7 +413,7 @@ private:
                 },
                 [&](double s) { return p.velocity_at(now + s).norm() + a_norm * (limit - s); });
             if (t)
-                push(now + *t, event_kind::obstacle, i, k);
+                push(now + *t, event_kind::obstacle, i, k, into);
         }
     }
 
@@ -435,6 +477,7 @@ private:
     double h_;
     continuous::workspace& ws_;
     collision_stats& stats_;
+    parallel_for* loops_;
     /// A wall whose normal is ±e_axis (as make_plane stores those), for its one-coordinate
     /// test; axis −1 for any other wall, and for walls past the first few.
     struct facing
@@ -456,9 +499,9 @@ private:
 
 void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                        double h, collision_workspace& workspace, collision_stats& stats)
+                        double h, collision_workspace& workspace, collision_stats& stats, parallel_for* loops)
 {
-    event_loop loop(settings, walls, obstacles, bodies, h, workspace.continuous, stats);
+    event_loop loop(settings, walls, obstacles, bodies, h, workspace.continuous, stats, loops);
     bool const complete = loop.run();
     loop.finish();
     if (!complete) {

@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <limits>
 
 namespace kugel::physics::continuous {
 
@@ -46,6 +47,8 @@ void path_grid::choose_cells(std::span<aabb const> boxes, std::span<std::uint32_
     if (!(lo.array() <= hi.array()).all() || !lo.allFinite() || !hi.allFinite()) {
         lo = hi = vec3::Zero();
     }
+    if (!(cell_ > 0.0) || !std::isfinite(cell_)) // boxes not finite: one cell holds them all
+        cell_ = std::max((hi - lo).maxCoeff(), 1.0);
     double const most = 4.0 * n + 64.0;
     for (;;) {
         double total = 1.0;
@@ -124,7 +127,8 @@ void path_grid::reset(std::span<aabb const> boxes, std::span<std::uint32_t const
     start_[0] = 0;
 }
 
-void path_grid::overlapping_pairs(std::vector<std::array<std::uint32_t, 2>>& out) const
+void path_grid::overlapping_pairs(std::size_t first, std::size_t last,
+                                  std::vector<std::array<std::uint32_t, 2>>& out) const
 {
     // Each box against the rest of its own cell and the next cell of its row (one run), and
     // against the rows of its cell's half of the neighbours that come later in cell order,
@@ -140,7 +144,7 @@ void path_grid::overlapping_pairs(std::vector<std::array<std::uint32_t, 2>>& out
     std::size_t found = 0;
     std::size_t const entries = entry_body_.size();
     std::uint32_t const dx = dims_[0], dy = dims_[1], dz = dims_[2];
-    for (std::uint32_t z = 0; z < dz; ++z)
+    for (auto z = static_cast<std::uint32_t>(first); z < std::min<std::size_t>(last, dz); ++z)
         for (std::uint32_t y = 0; y < dy; ++y) {
             std::uint32_t const row = index(0, y, z);
             std::uint32_t const row_begin = start[row], row_end = start[row + dx];

@@ -32,9 +32,12 @@ public:
     /// numbered below boxes.size().
     void reset(std::span<aabb const> boxes, std::span<std::uint32_t const> members);
 
+    /// Layers of cells (along z) the grid has.
+    std::size_t layers() const { return dims_[2]; }
     /// Every two bodies filed by reset() whose boxes overlap, neither of them listed, once
-    /// each (in no particular order).
-    void overlapping_pairs(std::vector<std::array<std::uint32_t, 2>>& out) const;
+    /// each (in no particular order), of those where the first lies in layers [first, last):
+    /// parts of the layers may be searched side by side.
+    void overlapping_pairs(std::size_t first, std::size_t last, std::vector<std::array<std::uint32_t, 2>>& out) const;
 
     /// The bodies reset() found too large for a cell, with their boxes.
     std::span<std::uint32_t const> listed_at_reset() const { return listed_at_reset_; }

@@ -51,7 +51,10 @@ struct workspace
     std::vector<std::uint64_t> events_of; ///< by body: events it took part in this step
     std::vector<event> queue;            ///< a min-heap by operator>
     path_grid grid;
-    std::vector<std::array<std::uint32_t, 2>> pairs; ///< bodies whose boxes overlap at a slice's start
+    /// Bodies whose boxes overlap at a slice's start, and the events found at a step's or a
+    /// slice's start: a list for each part of the work, which lent threads do side by side.
+    std::vector<std::vector<std::array<std::uint32_t, 2>>> pairs;
+    std::vector<std::vector<event>> found;
     // the boxes too large for the grid's cells, paired among themselves
     std::vector<aabb> listed_boxes;
     std::vector<box_pair> listed_pairs;

@@ -8,6 +8,7 @@
 // and said so in its commit.
 
 #include "physics/diagnostics.hpp"
+#include "physics/thread_pool.hpp"
 #include "physics/world.hpp"
 #include "support/state_hash.hpp"
 #include "physics/collision_scenes.hpp"
@@ -72,9 +73,10 @@ world gas(gas_options const& o)
     return w;
 }
 
-std::uint64_t pinned(gas_options const& o, int steps)
+std::uint64_t pinned(gas_options const& o, int steps, parallel_for* loops = nullptr)
 {
     world w = gas(o);
+    w.set_parallel_for(loops, 0);
     for (int i = 0; i < steps; ++i)
         w.step(1.0 / 60.0);
     EXPECT_EQ(w.escaped(), 0U);
@@ -123,6 +125,48 @@ TEST(ContinuousEvents, CoulombForcesArePinned)
     o.n = 200;
     o.charged = true;
     EXPECT_EQ(pinned(o, 120), 0x9c878af91f8976e2ULL);
+}
+
+// The work at a step's and a slice's start (paths, walls, the grid's pairs and their
+// predictions) is spread over lent threads, each part into a list of its own; the queue
+// orders events by time and indices alone, so the result is the same bits for any count.
+TEST(ContinuousThreads, AnyNumberOfThreadsGivesTheSameBits)
+{
+    gas_options dilute;
+    dilute.n = 3000;
+    gas_options fast;
+    fast.n = 300;
+    fast.max_speed = 50.0;
+    gas_options mixed;
+    mixed.n = 500;
+    mixed.max_speed = 3.0;
+    mixed.big_share = 0.1;
+    mixed.statics = 20;
+    for (auto const& [o, steps] : {std::pair{dilute, 40}, std::pair{fast, 30}, std::pair{mixed, 40}}) {
+        std::uint64_t const alone = pinned(o, steps);
+        for (std::size_t const threads : {1U, 2U, 3U}) {
+            thread_pool pool(threads);
+            EXPECT_EQ(pinned(o, steps, &pool), alone) << threads << " threads, " << o.n << " spheres";
+        }
+    }
+}
+
+// A room of the continuous mode starts empty, or holds point masses only: a step then has no
+// sphere to slice by (a step once divided 0 by 0 for its slice count and looped for ever).
+TEST(ContinuousEvents, AWorldWithoutSpheresSteps)
+{
+    world w(colliding(collision_mode::continuous));
+    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
+    add_box(w, 1.0);
+    for (int i = 0; i < 10; ++i)
+        w.step(1.0 / 60.0);
+    body_id const point = w.add_body({vec3(0, 0, 0.5), vec3::Zero(), 1.0, 0.0, 0.0, false});
+    for (int i = 0; i < 10; ++i)
+        w.step(1.0 / 60.0);
+    // a point mass never collides: it falls freely, on the exact parabola
+    double const t = 10.0 / 60.0;
+    EXPECT_NEAR(w.bodies().positions()[*w.bodies().slot_of(point)].z(), 0.5 - 0.5 * 9.81 * t * t, 1e-12);
+    EXPECT_EQ(w.collisions().events, 0U);
 }
 
 } // namespace
