@@ -1,6 +1,7 @@
 #pragma once
 
 #include "aabb.hpp"
+#include "body_id.hpp"
 #include "body_path.hpp"
 #include "broadphase.hpp"
 #include "physics/continuous/workspace.hpp"
@@ -25,7 +26,9 @@ struct wall
 {
     plane surface;        ///< unit outer normal, pointing to where the spheres are
     double damping = 0.0;  ///< α in [0, 1]: 0 reflects the normal speed fully, 1 stops it
-    double friction = 0.0; ///< μ in [0, 1]: the share of tangential speed lost per contact
+    /// μ in [0, 1]: the share of tangential speed lost per contact; in discrete mode under
+    /// forces, a sphere resting against the wall in a pile is held by Coulomb's law with this μ
+    double friction = 0.0;
 };
 
 /// A static box that spheres bounce off, with the same response rule as a wall.
@@ -106,6 +109,9 @@ struct collision_bodies
     /// body, which the first pass over the bodies makes on its way (x is then the step's start;
     /// x0 and v0 are not read). Requires accelerated = false.
     bool drift_pending = false;
+    /// Each body's id, by slot (or none): discrete mode under forces finds last step's
+    /// support stops by them (discrete/stop_table.hpp), whatever slot each body is in now.
+    std::span<body_id const> ids = {};
 };
 
 /// Scratch space reused across steps.

@@ -194,6 +194,7 @@ private:
     bool gathered_ = false; ///< the last collision step saw active_, not every body
     std::vector<vec3> active_x_, active_v_, active_x0_, active_v0_;
     std::vector<double> active_inverse_mass_, active_radius_;
+    std::vector<body_id> active_ids_;
     parallel_for* loops_ = nullptr; ///< lent by the owner, or none
     std::size_t share_from_ = bodies_worth_sharing; ///< loops_ is used from this many bodies
     /// loops_ when the world holds enough bodies for it to pay, else none.

@@ -78,6 +78,8 @@ void world::move_and_collide_around_sleepers(double h)
     active_v0_.resize(m);
     active_inverse_mass_.resize(m);
     active_radius_.resize(m);
+    active_ids_.resize(m);
+    auto const ids = bodies_.ids();
     for (std::size_t k = 0; k < m; ++k) {
         std::uint32_t const i = active_[k];
         active_x_[k] = x[i];
@@ -86,9 +88,11 @@ void world::move_and_collide_around_sleepers(double h)
         active_v0_[k] = step_start_v_[i];
         active_inverse_mass_[k] = island_of_[i] == awake ? inverse_mass[i] : 0.0; // a sleeper is static
         active_radius_[k] = radius[i];
+        active_ids_[k] = ids[i];
     }
     resolve_collisions(settings_.collisions, walls_, obstacles_,
-                       {active_x_, active_v_, active_x0_, active_v0_, active_inverse_mass_, active_radius_, true, false},
+                       {active_x_, active_v_, active_x0_, active_v0_, active_inverse_mass_, active_radius_, true, false,
+                        active_ids_},
                        h, collision_workspace_, collision_stats_, timings_, loops());
     for (std::size_t k = 0; k < m; ++k) {
         std::uint32_t const i = active_[k];

@@ -49,6 +49,9 @@ void copy_contact_spheres(step_context const& step, free_accelerations free_a, d
     }
     ws.moving.resize(copies);
     ws.moving_acceleration.resize(free_a.any() ? copies : 0);
+    bool const identified = free_a.any() && !step.bodies.ids.empty();
+    ws.moving_id.resize(identified ? copies : 0);
+    ws.moving_rank.resize(free_a.any() ? copies : 0);
     ws.listed_at.resize(grid.sphere_count());
     once_per_pass const once{ws.mark, next_stamp(ws, grid.sphere_count())};
     std::span<vec3> const v = step.bodies.v;
@@ -68,8 +71,12 @@ void copy_contact_spheres(step_context const& step, free_accelerations free_a, d
             fetch_ahead(slab.copied, listed, [&](std::uint32_t later) { return &v[grid.slot(later)]; });
             ws.listed_at[k] = c;
             ws.moving[c] = {v[i], grid.inverse_mass(k)};
-            if (free_a.any())
+            if (free_a.any()) {
                 ws.moving_acceleration[c] = free_a[i];
+                ws.moving_rank[c] = k;
+            }
+            if (identified)
+                ws.moving_id[c] = to_number(step.bodies.ids[i]);
             packed_sphere const& s = grid.sphere(k);
             if (!step.walls.beyond(s.x, touching_reach(s)))
                 slab.touched.push_back(k);
@@ -168,11 +175,20 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
         }
     }
     auto const& order = ws.support_order;
+    // Each stop's sums are kept by its bodies' ids, when the step knows them: the first pass of
+    // the next step starts from them (warm starting).
+    bool const remembered = !ws.moving_id.empty();
+    if (remembered && resting_only) {
+        std::swap(ws.last_stops, ws.stops);
+        ws.stops.clear(order.size());
+    }
     // One sphere against its supports, held still: projected Gauss–Seidel on its own velocity,
     // each stop's normal change and friction summed over the sweeps (so a later sweep can take
     // back what an earlier one gave too much of: summed normal change >= 0, friction within
     // μ times it), until no sweep changes the velocity by more than 2^-20 of one step's
-    // acceleration, or for at most 16 sweeps.
+    // acceleration, or for at most 16 sweeps. The first pass starts each stop from its sums of
+    // the last step: a sphere at rest needs the same ones, and then the first sweep changes
+    // nothing.
     constexpr int most_sweeps = 16;
     auto& moving = ws.moving;
     auto& stops = ws.support_stops;
@@ -182,6 +198,10 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
         if (moving[upper].inverse_mass == 0.0)
             continue;
         vec3& v = moving[upper].v;
+        vec3 const still = vec3::Zero();
+        auto const velocity_of = [&](std::uint32_t lower) -> vec3 const& {
+            return lower == discrete_workspace::a_wall ? still : moving[lower].v;
+        };
         stops.clear();
         for (std::size_t e = first; e < last; ++e) {
             auto const& o = order[e];
@@ -200,23 +220,55 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
                 continue; // a bounce: the passes answer it
             if (closing <= -allowed) // it ends the step on the lower one
                 supported[upper] = 1;
-            stops.push_back({n, allowed, lower});
+            stops.push_back({n, allowed, lower, step.settings.friction, remembered ? ws.moving_id[lower] : 0});
+        }
+        // The walls it touches and does not hang from: each a stop, with the wall's friction by
+        // Coulomb's law, so that a sphere pressed against a side wall by the pile can rest there
+        // (the lecture's rule, a share of the sliding speed at each touch, lets it creep down at
+        // about g·h per step) and one on the floor is held by its own stops and the floor together.
+        packed_sphere const& s = grid.sphere(ws.moving_rank[upper]);
+        vec3 const& a = ws.moving_acceleration[upper];
+        if (!step.walls.beyond(s.x, touching_reach(s))) {
+            for (std::uint32_t w = 0; w < step.walls.all.size(); ++w) {
+                wall const& wall_w = step.walls.all[w];
+                vec3 const& n = wall_w.surface.normal;
+                if (!touches(wall_w, s) || n.dot(a) > 0.0)
+                    continue;
+                double const closing = v.dot(n);
+                if (resting_only && -closing * (1.0 - wall_w.damping) >= detail::resting_threshold(step.settings, a, a, step.h))
+                    continue; // a bounce: the passes answer it
+                stops.push_back({n, 0.0, discrete_workspace::a_wall, wall_w.friction, w});
+            }
         }
         double const tolerance = 0x1p-20 * ws.moving_acceleration[upper].norm() * step.h;
-        double const mu = step.settings.friction;
+        if (remembered && resting_only) {
+            for (auto& stop : stops) {
+                kept_stop const* kept = ws.last_stops.find(ws.moving_id[upper], stop.lower_id);
+                if (!kept)
+                    continue;
+                // Last step's friction, in this step's tangent plane and within μ of the push.
+                vec3 friction = kept->friction - kept->friction.dot(stop.n) * stop.n;
+                double const bound = stop.mu * kept->pushed, size = friction.norm();
+                if (size > bound)
+                    friction *= bound / size;
+                stop.pushed = kept->pushed;
+                stop.friction = friction;
+                v += stop.pushed * stop.n + stop.friction;
+            }
+        }
         for (int sweep = 0; sweep < most_sweeps && !stops.empty(); ++sweep) {
             double largest = 0.0;
             for (auto& stop : stops) {
-                vec3 const& lower_v = moving[stop.lower].v;
+                vec3 const& lower_v = velocity_of(stop.lower);
                 double const closing = (v - lower_v).dot(stop.n);
                 double const pushed = std::max(stop.pushed - stop.allowed - closing, 0.0);
                 v += (pushed - stop.pushed) * stop.n;
                 largest = std::max(largest, std::abs(pushed - stop.pushed));
                 stop.pushed = pushed;
-                if (mu > 0.0) {
+                if (stop.mu > 0.0) {
                     vec3 const relative = v - lower_v;
                     vec3 friction = stop.friction - (relative - relative.dot(stop.n) * stop.n);
-                    double const bound = mu * stop.pushed, size = friction.norm();
+                    double const bound = stop.mu * stop.pushed, size = friction.norm();
                     if (size > bound)
                         friction *= bound / size;
                     v += friction - stop.friction;
@@ -227,9 +279,12 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
             if (largest <= tolerance)
                 break;
         }
-        for (auto const& stop : stops)
+        for (auto const& stop : stops) {
             if (stop.pushed > 0.0)
                 supported[upper] = 1;
+            if (remembered && stop.pushed > 0.0)
+                ws.stops.add({ws.moving_id[upper], stop.lower_id, stop.pushed, stop.friction});
+        }
     }
 }
 

@@ -6,9 +6,11 @@
 #include "physics/aabb.hpp"
 #include "physics/broadphase.hpp"
 #include "physics/discrete/sphere_grid.hpp"
+#include "physics/discrete/stop_table.hpp"
 #include "physics/vec.hpp"
 
 #include <cstdint>
+#include <limits>
 #include <vector>
 
 namespace kugel::physics {
@@ -77,6 +79,8 @@ struct discrete_workspace
     };
     std::vector<moving_sphere> moving;     ///< the contacts' spheres, as listed
     std::vector<vec3> moving_acceleration; ///< and their free accelerations
+    std::vector<std::uint64_t> moving_id;  ///< and their bodies' id numbers, when known
+    std::vector<std::uint32_t> moving_rank; ///< and, with forces, their positions in the grid's cell order
     std::vector<std::uint32_t> listed_at;  ///< where in `moving`, by cell order
     /// A contact in the order support is passed up a pile: under its upper sphere (a
     /// position in `moving`), at that sphere's depth along its acceleration.
@@ -94,11 +98,16 @@ struct discrete_workspace
     {
         vec3 n;                          ///< unit normal, from the lower sphere to it
         double allowed;                  ///< m/s of approach it may keep
-        std::uint32_t lower;             ///< position in `moving`
+        std::uint32_t lower;             ///< position in `moving`, or a_wall
+        double mu;                       ///< Coulomb's friction coefficient here
+        std::uint64_t lower_id;          ///< the lower body's id number, or the wall's index
         double pushed = 0.0;             ///< m/s, the normal change summed over the sweeps
         vec3 friction = vec3::Zero();    ///< m/s, the tangential change summed likewise
     };
+    static constexpr std::uint32_t a_wall = std::numeric_limits<std::uint32_t>::max(); ///< a stop's lower
     std::vector<support_stop> support_stops;
+    /// The stops' sums of the last step and of this one, by their bodies' ids (warm starting)
+    discrete::stop_table last_stops, stops;
     std::vector<std::uint8_t> supported; ///< by position in `moving`: carried by a wall
 };
 
