@@ -92,39 +92,27 @@ TEST(ContinuousEvents, DiluteGasIsPinned)
     EXPECT_EQ(pinned({}, 300), 0xe0a742c8be4595f3ULL);
 }
 
+gas_options const fast_gas{.n = 300, .max_speed = 50.0};
+gas_options const mixed_sizes{.n = 500, .max_speed = 3.0, .big_share = 0.1, .statics = 20};
+
 TEST(ContinuousEvents, FastGasIsPinned)
 {
-    gas_options o;
-    o.n = 300;
-    o.max_speed = 50.0;
-    EXPECT_EQ(pinned(o, 120), 0x4ebf790147a8b558ULL);
+    EXPECT_EQ(pinned(fast_gas, 120), 0x4ebf790147a8b558ULL);
 }
 
 TEST(ContinuousEvents, MixedSizesArePinned)
 {
-    gas_options o;
-    o.n = 500;
-    o.max_speed = 3.0;
-    o.big_share = 0.1;
-    o.statics = 20;
-    EXPECT_EQ(pinned(o, 200), 0xef7562b697bd3ef2ULL);
+    EXPECT_EQ(pinned(mixed_sizes, 200), 0xef7562b697bd3ef2ULL);
 }
 
 TEST(ContinuousEvents, UniformFieldIsPinned)
 {
-    gas_options o;
-    o.n = 300;
-    o.gravity = true;
-    o.restitution = 0.9;
-    EXPECT_EQ(pinned(o, 60), 0x97f49e95c5e90e7eULL);
+    EXPECT_EQ(pinned({.n = 300, .gravity = true, .restitution = 0.9}, 60), 0x97f49e95c5e90e7eULL);
 }
 
 TEST(ContinuousEvents, CoulombForcesArePinned)
 {
-    gas_options o;
-    o.n = 200;
-    o.charged = true;
-    EXPECT_EQ(pinned(o, 120), 0x9c878af91f8976e2ULL);
+    EXPECT_EQ(pinned({.n = 200, .charged = true}, 120), 0x9c878af91f8976e2ULL);
 }
 
 // The work at a step's and a slice's start (paths, walls, the grid's pairs and their
@@ -132,17 +120,8 @@ TEST(ContinuousEvents, CoulombForcesArePinned)
 // orders events by time and indices alone, so the result is the same bits for any count.
 TEST(ContinuousThreads, AnyNumberOfThreadsGivesTheSameBits)
 {
-    gas_options dilute;
-    dilute.n = 3000;
-    gas_options fast;
-    fast.n = 300;
-    fast.max_speed = 50.0;
-    gas_options mixed;
-    mixed.n = 500;
-    mixed.max_speed = 3.0;
-    mixed.big_share = 0.1;
-    mixed.statics = 20;
-    for (auto const& [o, steps] : {std::pair{dilute, 40}, std::pair{fast, 30}, std::pair{mixed, 40}}) {
+    gas_options const dilute{.n = 3000};
+    for (auto const& [o, steps] : {std::pair{dilute, 40}, std::pair{fast_gas, 30}, std::pair{mixed_sizes, 40}}) {
         std::uint64_t const alone = pinned(o, steps);
         for (std::size_t const threads : {1U, 2U, 3U}) {
             thread_pool pool(threads);
