@@ -6,6 +6,7 @@
 
 #include "physics/aabb.hpp"
 
+#include <algorithm>
 #include <array>
 #include <cstdint>
 #include <span>
