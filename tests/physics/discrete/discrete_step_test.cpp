@@ -314,6 +314,33 @@ body_desc pile_sphere(vec3 const& x)
     return ball(x, vec3::Zero(), 0.05, 1000 * 4.0 / 3.0 * 3.141592653589793 * 0.05 * 0.05 * 0.05);
 }
 
+/// A pile sphere of radius r resting on a fixed one, its centre `degrees` from the top of it,
+/// under gravity, restitution and sphere friction 0.5: the world so far (the caller adds the
+/// upper sphere, after any wall) and where that sphere starts.
+struct on_a_fixed_sphere
+{
+    world w;
+    vec3 start;
+    double theta;
+    static constexpr double r = 0.05;
+};
+
+on_a_fixed_sphere sphere_on_a_fixed_one(double degrees, bool sleep = true)
+{
+    world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
+    s.collisions.restitution = 0.5;
+    s.collisions.friction = 0.5;
+    s.collisions.sleep = sleep;
+    world w(s);
+    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
+    body_desc fixed = pile_sphere(vec3::Zero());
+    fixed.is_static = true;
+    w.add_body(fixed);
+    double const theta = degrees * 3.141592653589793 / 180.0;
+    vec3 const start = 2 * on_a_fixed_sphere::r * vec3(std::sin(theta), 0.0, std::cos(theta));
+    return {std::move(w), start, theta};
+}
+
 // Static friction between spheres: a sphere resting on a fixed sphere, its centre θ from the
 // top, under gravity, with the scene's μ = 0.5. Below the friction angle (tan θ < μ: 20°) the
 // contact holds it where it is for 5 s: measured, it does not move at all and its speed stays
@@ -324,16 +351,8 @@ body_desc pile_sphere(vec3 const& x)
 TEST(DiscretePile, SpheresStickOnSlopesShallowerThanTheFrictionAngle)
 {
     for (double const degrees : {20.0, 35.0}) {
-        world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
-        s.collisions.restitution = 0.5;
-        s.collisions.friction = 0.5;
-        world w(s);
-        w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
-        body_desc fixed = pile_sphere(vec3::Zero());
-        fixed.is_static = true;
-        w.add_body(fixed);
-        double const theta = degrees * 3.141592653589793 / 180.0, r = 0.05;
-        vec3 const start = 2 * r * vec3(std::sin(theta), 0.0, std::cos(theta));
+        auto [w, start, theta] = sphere_on_a_fixed_one(degrees);
+        double const r = on_a_fixed_sphere::r;
         body_id const top = w.add_body(pile_sphere(start));
         double moved = 0.0, fastest = 0.0;
         for (int step = 0; step < 300; ++step) {
@@ -342,7 +361,7 @@ TEST(DiscretePile, SpheresStickOnSlopesShallowerThanTheFrictionAngle)
             moved = std::max(moved, (w.bodies().positions()[i] - start).norm());
             fastest = std::max(fastest, w.bodies().velocities()[i].norm());
         }
-        if (std::tan(theta) < s.collisions.friction) {
+        if (std::tan(theta) < w.settings().collisions.friction) {
             EXPECT_LE(moved, 1e-6 * r) << degrees;
             EXPECT_LE(fastest, 1e-3) << degrees;
         } else {
@@ -392,17 +411,8 @@ TEST(DiscretePile, ATetrahedronOnTheFloorStaysStill)
 TEST(DiscretePile, ASphereLeaningOnASideWallStaysPut)
 {
     for (double const degrees : {30.0, 45.0, 70.0}) {
-        world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
-        s.collisions.restitution = 0.5;
-        s.collisions.friction = 0.5;
-        s.collisions.sleep = false; // what it does awake, step after step
-        world w(s);
-        w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
-        body_desc fixed = pile_sphere(vec3::Zero());
-        fixed.is_static = true;
-        w.add_body(fixed);
-        double const theta = degrees * 3.141592653589793 / 180.0, r = 0.05;
-        vec3 const start = 2 * r * vec3(std::sin(theta), 0.0, std::cos(theta));
+        [[maybe_unused]] auto [w, start, theta] = sphere_on_a_fixed_one(degrees, false); // awake, step after step
+        double const r = on_a_fixed_sphere::r;
         w.add_wall({make_plane(vec3(-1, 0, 0), -(start.x() + r)), 0.5, 0.5});
         body_id const leaning = w.add_body(pile_sphere(start));
         double moved = 0.0, deepest = 0.0;
