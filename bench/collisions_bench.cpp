@@ -21,10 +21,11 @@ using namespace kugel::physics;
 /// The gas, its spheres added on the lattice row by row, so that neighbours start in
 /// neighbouring slots; or, `mixed`, in a shuffled order, as the slots of a gas that has run
 /// for a while are (it mixes, and bodies come and go).
-world gas(collision_mode mode, std::int64_t n, bool mixed = false)
+world gas(collision_mode mode, std::int64_t n, bool mixed = false, bool calendar = true)
 {
     world_settings settings;
     settings.collisions.mode = mode;
+    settings.collisions.event_calendar = calendar;
     world w(settings);
     double const r = 0.05;
     double const side = std::cbrt(static_cast<double>(n) * 4.0 / 3.0 * std::numbers::pi * r * r * r / 0.1);
@@ -73,6 +74,14 @@ void gas_step(benchmark::State& state, collision_mode mode)
     time_gas_steps(state, w, state.range(0));
 }
 
+// The continuous step by the step-by-step loop, which predicts every pair afresh each step
+// (the calendar off): what the calendar saves.
+void gas_step_stepwise(benchmark::State& state)
+{
+    world w = gas(collision_mode::continuous, state.range(0), false, false);
+    time_gas_steps(state, w, state.range(0));
+}
+
 // The same step with the world lent a pool of T threads (arguments T, N); wall time, since
 // the work is spread over threads.
 void gas_step_threads(benchmark::State& state, collision_mode mode)
@@ -98,6 +107,8 @@ BENCHMARK_CAPTURE(gas_step, discrete, collision_mode::discrete)
     ->RangeMultiplier(10)->Range(1000, 1000000)->Unit(benchmark::kMillisecond);
 BENCHMARK_CAPTURE(gas_step, continuous, collision_mode::continuous)
     ->RangeMultiplier(10)->Range(1000, 100000)->Unit(benchmark::kMillisecond);
+
+BENCHMARK(gas_step_stepwise)->RangeMultiplier(10)->Range(1000, 100000)->Unit(benchmark::kMillisecond);
 
 BENCHMARK_CAPTURE(gas_step_threads, discrete, collision_mode::discrete)
     ->ArgsProduct({{2}, {1000, 10000, 100000, 1000000}})->Unit(benchmark::kMillisecond)->UseRealTime();

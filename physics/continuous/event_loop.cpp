@@ -6,6 +6,7 @@
 
 #include "physics/collision_rules.hpp"
 #include "physics/collisions.hpp"
+#include "physics/continuous/touching.hpp"
 #include "physics/discrete/discrete_step.hpp"
 #include "physics/time_of_impact.hpp"
 
@@ -19,25 +20,10 @@
 
 namespace kugel::physics {
 
+using continuous::position_slack;
+using continuous::touching_tolerance;
 
 namespace {
-
-/// Relative gap below which two surfaces count as touching (and above which an event is only
-/// a checkpoint on the way): 1e-9 of the contact distance, far above rounding in positions
-/// yet far below anything visible.
-constexpr double touching_tolerance = 1e-9;
-
-/// How far apart surfaces may still count as touching because positions are only known to
-/// their rounding: a few units in the last place of the largest coordinate of either body.
-/// Far from the origin that exceeds the relative tolerance above (at 1e9 m a position is
-/// known to 1.2e-7 m, against 2e-13 m for spheres of 1e-4 m), and an event moved there
-/// would otherwise find them apart, predict them again a rounding error later, and never
-/// answer the contact.
-double position_slack(vec3 const& a, vec3 const& b)
-{
-    double const largest = std::max(a.cwiseAbs().maxCoeff(), b.cwiseAbs().maxCoeff());
-    return 8.0 * std::numeric_limits<double>::epsilon() * largest;
-}
 
 /// Conservative advancement: repeatedly move to the time at which the gap could at most have
 /// closed, given a bound on the closing speed, until the gap is within tolerance. Never steps
@@ -479,6 +465,8 @@ private:
             predict_body(j, now);
             break;
         }
+        case event_kind::crossing: // the calendar's alone
+            break;
         }
         ++ws_.version[i];
         predict_body(i, now);
@@ -515,9 +503,18 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats, parallel_for* loops)
 {
-    event_loop loop(settings, walls, obstacles, bodies, h, workspace.continuous, stats, loops);
-    bool const complete = loop.run();
-    loop.finish();
+    continuous::calendar& kept = workspace.continuous.kept;
+    auto outcome = continuous::calendar::outcome::declined;
+    if (settings.event_calendar && obstacles.empty())
+        outcome = kept.step(settings, walls, bodies, h, stats);
+    else
+        kept.forget();
+    bool complete = outcome == continuous::calendar::outcome::done;
+    if (outcome == continuous::calendar::outcome::declined) {
+        event_loop loop(settings, walls, obstacles, bodies, h, workspace.continuous, stats, loops);
+        complete = loop.run();
+        loop.finish();
+    }
     if (!complete) {
         // Too many events (a dense resting pile): finish the step as the discrete mode would,
         // starting from where the events left the bodies.

@@ -6,6 +6,8 @@
 #include "physics/aabb.hpp"
 #include "physics/body_path.hpp"
 #include "physics/broadphase.hpp"
+#include "physics/continuous/calendar.hpp"
+#include "physics/continuous/event.hpp"
 #include "physics/continuous/path_grid.hpp"
 #include "physics/vec.hpp"
 
@@ -14,31 +16,6 @@
 #include <vector>
 
 namespace kugel::physics::continuous {
-
-enum class event_kind : std::uint8_t { pair, wall, obstacle };
-
-/// A predicted contact: valid while neither body's path has changed since (their versions).
-struct event
-{
-    double time;
-    event_kind kind;
-    std::uint32_t body;
-    std::uint32_t other; ///< body, wall or obstacle index
-    std::uint32_t body_version;
-    std::uint32_t other_version; ///< for pairs
-
-    /// Earliest first; ties broken by kind and indices so the order never depends on the heap.
-    friend bool operator>(event const& l, event const& r)
-    {
-        if (l.time != r.time)
-            return l.time > r.time;
-        if (l.kind != r.kind)
-            return l.kind > r.kind;
-        if (l.body != r.body)
-            return l.body > r.body;
-        return l.other > r.other;
-    }
-};
 
 struct workspace
 {
@@ -51,6 +28,8 @@ struct workspace
     std::vector<std::uint64_t> events_of; ///< by body: events it took part in this step
     std::vector<event> queue;            ///< a min-heap by operator>
     path_grid grid;
+    /// Force-free worlds in a closed box: the events kept from step to step instead.
+    calendar kept;
     /// Bodies whose boxes overlap at a slice's start, and the events found at a step's or a
     /// slice's start: a list for each part of the work, which lent threads do side by side.
     std::vector<std::vector<std::array<std::uint32_t, 2>>> pairs;

@@ -1,0 +1,508 @@
+#include "physics/continuous/calendar.hpp"
+
+#include "physics/collision_rules.hpp"
+#include "physics/collisions.hpp"
+#include "physics/continuous/touching.hpp"
+#include "physics/time_of_impact.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <limits>
+
+namespace kugel::physics::continuous {
+
+namespace {
+
+constexpr double forever = std::numeric_limits<double>::infinity();
+
+/// The calendar starts afresh before a step that would end later than this (s), so that its
+/// clock, and with it every event time, stays as precise as a step's: at 16 s a time is
+/// known to 4e-15 s.
+constexpr double clock_span = 16.0;
+
+/// The event calendar's buckets: a few a step, so that the queue holds few events at a time
+/// (and stays in the nearest cache), and enough of them for a second of steps at 60 Hz.
+constexpr double buckets_per_step = 16.0;
+constexpr std::size_t ring = 64;
+
+/// Cells are this much wider than the largest diameter, so that a centre filed in a cell a
+/// rounding error off its true one still has every sphere it can touch in a neighbour.
+constexpr double cell_margin = 1e-6;
+
+/// Paths changed by commands in one step beyond which the calendar starts afresh instead.
+constexpr std::size_t changes_worth_following(std::size_t members) { return members / 8 + 16; }
+
+bool same(vec3 const& a, vec3 const& b) { return (a.array() == b.array()).all(); }
+
+std::array<double, 4> plane_of(wall const& w)
+{
+    vec3 const& n = w.surface.normal;
+    return {n.x(), n.y(), n.z(), w.surface.offset};
+}
+
+} // namespace
+
+bool calendar::fits(std::span<wall const> walls, collision_bodies const& b)
+{
+    // Paths straight between contacts, and each body known by its id from step to step.
+    if (b.accelerated || b.ids.size() != b.x0.size())
+        return false;
+    // A closed box: every wall faces along an axis, and each axis has both sides.
+    sides_.clear();
+    vec3 below = vec3::Constant(-forever), above = vec3::Constant(forever);
+    for (wall const& w : walls) {
+        vec3 const& n = w.surface.normal;
+        Eigen::Index axis = 0;
+        if (!(n.cwiseAbs().maxCoeff(&axis) == 1.0 && (n.array() == 0.0).count() == 2))
+            return false;
+        bool const positive = n[axis] > 0.0;
+        sides_.push_back({static_cast<int>(axis), positive});
+        if (positive)
+            below[axis] = std::max(below[axis], w.surface.offset);
+        else
+            above[axis] = std::min(above[axis], -w.surface.offset);
+    }
+    if (!(below.array() < above.array()).all() || !below.allFinite() || !above.allFinite())
+        return false;
+    // Spheres of alike sizes, every centre inside the box: cells a largest diameter wide.
+    members_.clear();
+    double largest = 0.0, total = 0.0;
+    for (std::uint32_t i = 0; i < b.x0.size(); ++i) {
+        double const r = b.radius[i];
+        if (!(r > 0.0))
+            continue;
+        if (!((b.x0[i].array() >= below.array()).all() && (b.x0[i].array() <= above.array()).all()) ||
+            !b.v0[i].allFinite())
+            return false;
+        members_.push_back(i);
+        largest = std::max(largest, r);
+        total += r;
+    }
+    if (members_.empty() || largest > 4.0 * total / static_cast<double>(members_.size()))
+        return false;
+    double reach = 2.0 * largest * (1.0 + cell_margin);
+    vec3 const extent = above - below;
+    double const most = 4.0 * static_cast<double>(members_.size()) + 64.0;
+    for (;;) {
+        double cells = 1.0;
+        for (int k = 0; k < 3; ++k)
+            cells *= std::max(std::floor(extent[k] / reach), 1.0);
+        if (cells <= most)
+            break;
+        reach *= std::max(std::cbrt(cells / most), 1.0 + 1e-6);
+    }
+    for (int k = 0; k < 3; ++k) {
+        auto const a = static_cast<std::size_t>(k);
+        double const count = std::max(std::floor(extent[k] / reach), 1.0);
+        dims_[a] = static_cast<std::uint32_t>(count);
+        width_[k] = extent[k] / count;
+        inverse_width_[k] = 1.0 / width_[k];
+    }
+    lo_ = below;
+    return true;
+}
+
+std::array<std::uint32_t, 3> calendar::cell_of(vec3 const& x) const
+{
+    std::array<std::uint32_t, 3> c{};
+    for (int k = 0; k < 3; ++k) {
+        auto const a = static_cast<std::size_t>(k);
+        double const u = std::floor((x[k] - lo_[k]) * inverse_width_[k]);
+        c[a] = u <= 0.0 ? 0U : u >= static_cast<double>(dims_[a] - 1U) ? dims_[a] - 1U : static_cast<std::uint32_t>(u);
+    }
+    return c;
+}
+
+void calendar::link(std::uint32_t i)
+{
+    std::uint32_t& head = head_[cell_index(cell_[i])];
+    previous_[i] = none;
+    spheres_[i].next = head;
+    if (head != none)
+        previous_[head] = i;
+    head = i;
+}
+
+void calendar::unlink(std::uint32_t i)
+{
+    std::uint32_t const next = spheres_[i].next;
+    if (previous_[i] != none)
+        spheres_[previous_[i]].next = next;
+    else
+        head_[cell_index(cell_[i])] = next;
+    if (next != none)
+        previous_[next] = previous_[i];
+}
+
+template <class F>
+void calendar::for_each_in_cells(std::array<std::uint32_t, 3> const& lo, std::array<std::uint32_t, 3> const& hi,
+                                 F f) const
+{
+    for (std::uint32_t z = lo[2]; z <= hi[2]; ++z)
+        for (std::uint32_t y = lo[1]; y <= hi[1]; ++y)
+            for (std::uint32_t x = lo[0]; x <= hi[0]; ++x)
+                for (std::uint32_t j = head_[cell_index({x, y, z})]; j != none; j = spheres_[j].next)
+                    f(j);
+}
+
+void calendar::build(collision_bodies const& b)
+{
+    clock_ = 0.0;
+    now_ = 0.0;
+    ids_.assign(b.ids.begin(), b.ids.end());
+    planes_.clear();
+    for (wall const& w : walls_)
+        planes_.push_back(plane_of(w));
+    queue_.clear();
+    later_.resize(ring);
+    for (auto& filed : later_)
+        filed.clear();
+    latest_.clear();
+    bucket_ = h_ > 0.0 ? h_ / buckets_per_step : 1.0;
+    opened_ = 0;
+    // Numbered in cell order (a counting sort by cell), each cell's list in that order.
+    std::size_t const cells = std::size_t{dims_[0]} * dims_[1] * dims_[2];
+    std::size_t const m = members_.size();
+    head_.assign(cells + 1, 0);
+    for (std::uint32_t s : members_)
+        ++head_[cell_index(cell_of(b.x0[s])) + 1];
+    for (std::size_t c = 0; c < cells; ++c)
+        head_[c + 1] += head_[c];
+    slot_.resize(m);
+    for (std::uint32_t s : members_)
+        slot_[head_[cell_index(cell_of(b.x0[s]))]++] = s;
+    head_.assign(cells, none);
+    spheres_.resize(m);
+    shapes_.resize(m);
+    cell_.resize(m);
+    previous_.resize(m);
+    events_of_.assign(m, 0);
+    for (std::uint32_t i = static_cast<std::uint32_t>(m); i-- > 0;) { // each list in number order
+        std::uint32_t const s = slot_[i];
+        spheres_[i] = {b.x0[s], b.v0[s], 0.0, 0, none};
+        shapes_[i] = {b.radius[s], b.inverse_mass[s]};
+        cell_[i] = cell_of(b.x0[s]);
+        link(i);
+    }
+    // Every pair of neighbours once: each sphere against the rest of its cell's list and the
+    // lists of the 13 neighbouring cells that come after its own.
+    for (std::uint32_t i = 0; i < m; ++i) {
+        predict_walls(i);
+        predict_crossing(i);
+        for (std::uint32_t j = spheres_[i].next; j != none; j = spheres_[j].next)
+            predict_pair(i, j);
+        auto const& c = cell_[i];
+        for (int dz = 0; dz <= 1; ++dz)
+            for (int dy = dz == 0 ? 0 : -1; dy <= 1; ++dy)
+                for (int dx = dz == 0 && dy == 0 ? 1 : -1; dx <= 1; ++dx) {
+                    std::int64_t const x = std::int64_t{c[0]} + dx, y = std::int64_t{c[1]} + dy,
+                                       z = std::int64_t{c[2]} + dz;
+                    if (x < 0 || y < 0 || x >= dims_[0] || y >= dims_[1] || z >= dims_[2])
+                        continue;
+                    std::array<std::uint32_t, 3> const at{static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y),
+                                                          static_cast<std::uint32_t>(z)};
+                    for (std::uint32_t j = head_[cell_index(at)]; j != none; j = spheres_[j].next)
+                        predict_pair(i, j);
+                }
+    }
+    std::make_heap(queue_.begin(), queue_.end(), std::greater<>{});
+    built_ = true;
+}
+
+bool calendar::notice_changes(collision_bodies const& b)
+{
+    // A command (an impulse, a teleport) changed these paths since the last step's end.
+    changed_.clear();
+    for (std::uint32_t i = 0; i < spheres_.size(); ++i) {
+        std::uint32_t const s = slot_[i];
+        if (!same(b.x0[s], position(i, clock_)) || !same(b.v0[s], spheres_[i].v)) {
+            if (changed_.size() == changes_worth_following(spheres_.size()))
+                return false;
+            changed_.push_back(i);
+        }
+    }
+    vec3 const hi = lo_ + width_.cwiseProduct(vec3(dims_[0], dims_[1], dims_[2]));
+    for (std::uint32_t i : changed_) {
+        vec3 const& x = b.x0[slot_[i]];
+        vec3 const& v = b.v0[slot_[i]];
+        if (!((x.array() >= lo_.array()).all() && (x.array() <= hi.array()).all()) || !v.allFinite())
+            return false; // put outside the box: the step-by-step loop's business
+        unlink(i);
+        cell_[i] = cell_of(x);
+        link(i);
+        repath(i, x, v, clock_);
+    }
+    for (std::uint32_t i : changed_)
+        predict_body(i, none);
+    return true;
+}
+
+void calendar::repath(std::uint32_t i, vec3 const& x, vec3 const& v, double t)
+{
+    sphere& s = spheres_[i];
+    s.x = x;
+    s.v = v;
+    s.since = t;
+    ++s.version;
+}
+
+void calendar::push(double time, event_kind kind, std::uint32_t body, std::uint32_t other)
+{
+    // A time of impact from an older path can round to just before the event that found it;
+    // events after the calendar's span are never taken (no step it takes ends later).
+    if (!(time <= clock_span))
+        return;
+    std::uint32_t const other_version = kind == event_kind::pair ? spheres_[other].version : 0;
+    file({std::max(time, now_), kind, body, other, spheres_[body].version, other_version});
+}
+
+void calendar::file(event const& e)
+{
+    std::int64_t const bucket = bucket_of(e.time);
+    if (bucket <= opened_) {
+        queue_.push_back(e);
+        if (built_)
+            std::push_heap(queue_.begin(), queue_.end(), std::greater<>{});
+    } else if (bucket - opened_ <= static_cast<std::int64_t>(later_.size())) {
+        later_[static_cast<std::size_t>(bucket) % later_.size()].push_back(e);
+    } else {
+        latest_.push_back(e);
+    }
+}
+
+void calendar::open_bucket()
+{
+    ++opened_;
+    auto& filed = later_[static_cast<std::size_t>(opened_) % later_.size()];
+    for (event const& e : filed)
+        if (current(e))
+            queue_.push_back(e);
+    filed.clear();
+    std::make_heap(queue_.begin(), queue_.end(), std::greater<>{});
+    if (opened_ % static_cast<std::int64_t>(later_.size()) == 0) {
+        // the ring's turn: the events beyond it, filed again (or again beyond)
+        refiling_.swap(latest_);
+        latest_.clear();
+        for (event const& e : refiling_)
+            if (current(e))
+                file(e);
+        refiling_.clear();
+    }
+}
+
+bool calendar::current(event const& e) const
+{
+    return spheres_[e.body].version == e.body_version &&
+           (e.kind != event_kind::pair || spheres_[e.other].version == e.other_version);
+}
+
+void calendar::predict_pair(std::uint32_t i, std::uint32_t j)
+{
+    if (shapes_[i].inverse_mass == 0.0 && shapes_[j].inverse_mass == 0.0)
+        return;
+    // From the later of the two paths' starts, that body first (the lower number on a tie):
+    // the same event whenever the pair is found.
+    sphere const* p = &spheres_[i];
+    sphere const* q = &spheres_[j];
+    if (q->since > p->since || (q->since == p->since && j < i)) {
+        std::swap(i, j);
+        std::swap(p, q);
+    }
+    vec3 const xq = q->x + (p->since - q->since) * q->v;
+    if (auto t = sphere_time_of_impact(p->x, p->v, shapes_[i].radius, xq, q->v, shapes_[j].radius, forever))
+        push(p->since + *t, event_kind::pair, i, j);
+}
+
+void calendar::predict_walls(std::uint32_t i)
+{
+    if (shapes_[i].inverse_mass == 0.0)
+        return;
+    sphere const& p = spheres_[i];
+    for (std::uint32_t k = 0; k < walls_.size(); ++k) {
+        // only the walls it moves towards (n·v < 0, exact for a normal ±e_axis); the gap
+        // ±x − d − r, plainly, errs by a few units in the last place of x, within the touching
+        // slack (position_slack) that answers the contact when its time comes
+        side const s = sides_[k];
+        double const towards = s.positive ? p.v[s.axis] : -p.v[s.axis];
+        if (!(towards < 0.0))
+            continue;
+        double const gap = ((s.positive ? p.x[s.axis] : -p.x[s.axis]) - walls_[k].surface.offset) - shapes_[i].radius;
+        push(p.since + (gap > 0.0 ? gap / -towards : 0.0), event_kind::wall, i, k);
+    }
+}
+
+void calendar::predict_crossing(std::uint32_t i)
+{
+    sphere const& p = spheres_[i];
+    auto const& c = cell_[i];
+    double soonest = forever;
+    std::uint32_t face = 0;
+    for (int k = 0; k < 3; ++k) {
+        auto const a = static_cast<std::size_t>(k);
+        double const v = p.v[k];
+        double boundary = 0.0;
+        if (v > 0.0 && c[a] + 1U < dims_[a])
+            boundary = lo_[k] + static_cast<double>(c[a] + 1U) * width_[k];
+        else if (v < 0.0 && c[a] > 0U)
+            boundary = lo_[k] + static_cast<double>(c[a]) * width_[k];
+        else
+            continue;
+        double const t = (boundary - p.x[k]) / v;
+        if (t < soonest) {
+            soonest = t;
+            face = 2U * static_cast<std::uint32_t>(k) + (v > 0.0 ? 1U : 0U);
+        }
+    }
+    if (soonest < forever)
+        push(p.since + std::max(soonest, 0.0), event_kind::crossing, i, face);
+}
+
+void calendar::predict_body(std::uint32_t i, std::uint32_t except)
+{
+    predict_walls(i);
+    predict_crossing(i);
+    auto const& c = cell_[i];
+    std::array<std::uint32_t, 3> lo{}, hi{};
+    for (std::size_t a = 0; a < 3; ++a) {
+        lo[a] = c[a] > 0U ? c[a] - 1U : 0U;
+        hi[a] = std::min(c[a] + 1U, dims_[a] - 1U);
+    }
+    for_each_in_cells(lo, hi, [&](std::uint32_t j) {
+        if (j != i && j != except)
+            predict_pair(i, j);
+    });
+}
+
+void calendar::handle_pair(event const& e)
+{
+    std::uint32_t const i = e.body, j = e.other;
+    vec3 const xi = position(i, e.time), xj = position(j, e.time);
+    vec3 vi = spheres_[i].v, vj = spheres_[j].v;
+    vec3 const d = xi - xj;
+    double const distance = d.norm();
+    double const reach = shapes_[i].radius + shapes_[j].radius;
+    if (distance <= reach * (1.0 + touching_tolerance) || distance <= reach + position_slack(xi, xj)) {
+        vec3 const n = detail::contact_normal(d, distance);
+        if (detail::respond_to_sphere_contact(vi, shapes_[i].inverse_mass, vec3::Zero(), vj, shapes_[j].inverse_mass,
+                                              vec3::Zero(), n, *settings_, h_))
+            ++stats_->sphere_contacts;
+    }
+    repath(i, xi, vi, e.time);
+    repath(j, xj, vj, e.time);
+    predict_body(i, j);
+    predict_body(j, none);
+}
+
+void calendar::handle_wall(event const& e)
+{
+    std::uint32_t const i = e.body;
+    wall const& w = walls_[e.other];
+    double const r = shapes_[i].radius;
+    body_path p{position(i, e.time), spheres_[i].v, vec3::Zero(), e.time};
+    double const height = w.surface.normal.dot(p.x);
+    if (height <= w.surface.offset + r + touching_tolerance * r ||
+        height <= w.surface.offset + r + position_slack(p.x, vec3::Zero())) {
+        if (detail::respond_to_surface(p, w.surface.normal, w.surface.offset + r, w.damping, w.friction, *settings_,
+                                       h_))
+            ++stats_->wall_contacts;
+    }
+    repath(i, p.x, p.v, e.time);
+    predict_body(i, none);
+}
+
+void calendar::handle_crossing(event const& e)
+{
+    std::uint32_t const i = e.body;
+    auto const axis = static_cast<std::size_t>(e.other / 2U);
+    bool const up = (e.other & 1U) != 0U;
+    unlink(i);
+    cell_[i][axis] = up ? cell_[i][axis] + 1U : cell_[i][axis] - 1U;
+    link(i);
+    // The layer of cells that came into reach, one beyond the new cell along the axis.
+    auto const& c = cell_[i];
+    bool const beyond = up ? c[axis] + 1U < dims_[axis] : c[axis] > 0U;
+    if (beyond) {
+        std::array<std::uint32_t, 3> lo{}, hi{};
+        for (std::size_t a = 0; a < 3; ++a) {
+            lo[a] = c[a] > 0U ? c[a] - 1U : 0U;
+            hi[a] = std::min(c[a] + 1U, dims_[a] - 1U);
+        }
+        lo[axis] = hi[axis] = up ? c[axis] + 1U : c[axis] - 1U;
+        for_each_in_cells(lo, hi, [&](std::uint32_t j) { predict_pair(i, j); });
+    }
+    predict_crossing(i);
+}
+
+void calendar::write_positions(collision_bodies const& b, double at) const
+{
+    for (std::uint32_t i = 0; i < spheres_.size(); ++i) {
+        b.x[slot_[i]] = position(i, at);
+        b.v[slot_[i]] = spheres_[i].v;
+    }
+}
+
+calendar::outcome calendar::step(collision_settings const& settings, std::span<wall const> walls,
+                                 collision_bodies const& b, double h, collision_stats& stats)
+{
+    settings_ = &settings;
+    stats_ = &stats;
+    h_ = h;
+    bool const same_walls = built_ && std::equal(walls.begin(), walls.end(), planes_.begin(), planes_.end(),
+                                                 [](wall const& w, auto const& p) { return plane_of(w) == p; });
+    bool const same_bodies = built_ && b.ids.size() == ids_.size() && std::equal(b.ids.begin(), b.ids.end(), ids_.begin());
+    now_ = clock_;
+    if (!(same_walls && same_bodies && clock_ + h <= clock_span && notice_changes(b))) {
+        built_ = false;
+        walls_ = walls;
+        if (!fits(walls, b))
+            return outcome::declined;
+        build(b);
+    }
+    walls_ = walls;
+
+    double const end = clock_ + h;
+    std::int64_t const last = bucket_of(end);
+    std::fill(events_of_.begin(), events_of_.end(), 0U);
+    std::uint64_t contacts = 0;
+    for (;;) {
+        // The queue holds the events of the buckets opened so far, every other event is
+        // later: its earliest is the next, and an empty queue opens the next bucket.
+        if (queue_.empty()) {
+            if (opened_ >= last)
+                break;
+            open_bucket();
+            continue;
+        }
+        if (queue_.front().time > end)
+            break;
+        std::pop_heap(queue_.begin(), queue_.end(), std::greater<>{});
+        event const e = queue_.back();
+        queue_.pop_back();
+        if (!current(e))
+            continue;
+        now_ = e.time;
+        ++stats.events;
+        if (e.kind == event_kind::crossing) {
+            handle_crossing(e);
+            continue;
+        }
+        bool const pair = e.kind == event_kind::pair;
+        if (contacts == settings.max_events_per_step || events_of_[e.body]++ >= settings.max_events_per_body ||
+            (pair && events_of_[e.other]++ >= settings.max_events_per_body)) {
+            write_positions(b, end);
+            built_ = false;
+            return outcome::capped;
+        }
+        ++contacts;
+        if (pair)
+            handle_pair(e);
+        else
+            handle_wall(e);
+    }
+    clock_ = end;
+    write_positions(b, end);
+    return outcome::done;
+}
+
+} // namespace kugel::physics::continuous
