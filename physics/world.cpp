@@ -10,6 +10,10 @@ world::world(world_settings settings) : settings_(settings)
 {
     if (settings_.substeps < 1)
         throw std::invalid_argument("world substeps must be >= 1");
+    if (!(settings_.adaptive.tolerance >= step_control::min_tolerance && settings_.adaptive.tolerance < 1.0))
+        throw std::invalid_argument("the adaptive integrator's tolerance must be in [1e-13, 1)");
+    if (settings_.adaptive.max_steps < 1)
+        throw std::invalid_argument("the adaptive integrator's max_steps must be >= 1");
 }
 
 body_id world::add_body(body_desc const& desc)
@@ -123,7 +127,8 @@ void world::move_freely(double h)
         acceleration_fn const a = [this](std::span<vec3 const> at, std::span<vec3> out) {
             accelerations(at, out);
         };
-        advance(settings_.integrator, bodies_.positions(), bodies_.velocities(), h, a, workspace_);
+        advance(settings_.integrator, bodies_.positions(), bodies_.velocities(), h, a, workspace_,
+                settings_.adaptive);
     }
     clock.lap(step_phase::free_motion);
 }
@@ -272,12 +277,18 @@ void world::step(double dt)
         // a failed step changes nothing, as with one substep.
         undo_x_.assign(bodies_.positions().begin(), bodies_.positions().end());
         undo_v_.assign(bodies_.velocities().begin(), bodies_.velocities().end());
-        try {
-            substeps(dt);
-        } catch (singular_force_error const&) {
+        auto const undo = [&] {
             std::ranges::copy(undo_x_, bodies_.positions().begin());
             std::ranges::copy(undo_v_, bodies_.velocities().begin());
             workspace_.invalidate();
+        };
+        try {
+            substeps(dt);
+        } catch (singular_force_error const&) {
+            undo();
+            throw;
+        } catch (step_control_error const&) {
+            undo();
             throw;
         }
     } else {

@@ -16,6 +16,7 @@ struct world_settings
 {
     integrator_kind integrator = integrator_kind::velocity_verlet;
     int substeps = 1; ///< >= 1: step(dt) runs this many integrator steps of dt/substeps
+    step_control adaptive; ///< the adaptive integrator's tolerance and step cap (dormand_prince)
     collision_settings collisions;
 };
 
@@ -73,8 +74,9 @@ public:
     void add_obstacle(obstacle const& o);
 
     /// Advances the world by dt seconds (dt finite and >= 0, else std::invalid_argument).
-    /// Throws singular_force_error when a force is singular; the world is then unchanged
-    /// (with substeps too: a failing substep undoes those before it).
+    /// Throws singular_force_error when a force is singular, and step_control_error when the
+    /// adaptive integrator cannot meet its tolerance; the world is then unchanged (with
+    /// substeps too: a failing substep undoes those before it).
     /// A world of bodies_worth_sorting bodies or more in discrete mode also moves its bodies
     /// to new slots on every sort_interval-th step (ids stay; see bodies_worth_sorting).
     void step(double dt);
@@ -113,6 +115,9 @@ public:
     double time() const { return time_; }                ///< s since the start
     std::uint64_t steps() const { return steps_; }        ///< calls to step()
     std::uint64_t force_evaluations() const { return force_evaluations_; }
+    /// The steps the adaptive integrator took inside the world's steps (all zero for the
+    /// others).
+    adaptive_steps const& integration_steps() const { return workspace_.steps(); }
     /// The rounding the compensated sum of time still owes (s); saved with a checkpoint.
     double time_compensation() const { return time_compensation_; }
     /// Sets the clock a checkpoint recorded, so a restored world continues the same sum of

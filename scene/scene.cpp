@@ -469,7 +469,7 @@ force_settings read_forces(json const& value, location const& at)
 scene read_scene(json const& doc, location const& at)
 {
     object(doc, at,
-           {"$schema", "name", "description", "dt", "substeps", "integrator", "forces",
+           {"$schema", "name", "description", "dt", "substeps", "integrator", "tolerance", "forces",
             "collisions", "walls", "box", "obstacles", "bodies", "generators"});
     scene s;
     s.name = optional_field(doc, "name", at, std::string("unnamed"), text);
@@ -489,6 +489,18 @@ scene read_scene(json const& doc, location const& at)
             (at / "integrator").fail("unknown integrator '" + wanted + "' (known: " + known + ")");
         }
         s.integrator = *kind;
+    }
+    if (auto const* tolerance = find(doc, "tolerance")) {
+        location const where = at / "tolerance";
+        if (!physics::info(s.integrator).adaptive)
+            where.fail("is the adaptive integrator's; this scene's integrator " +
+                       std::string(physics::info(s.integrator).name) +
+                       " takes fixed steps (give \"integrator\": \"dormand_prince\", or remove it)");
+        double const t = number(*tolerance, where);
+        if (!(t >= physics::step_control::min_tolerance && t < 1.0))
+            where.fail("must be >= " + format(physics::step_control::min_tolerance) +
+                       " (below, rounding outweighs the error it measures) and < 1, got " + format(t));
+        s.adaptive.tolerance = t;
     }
     if (auto const* forces = find(doc, "forces"))
         s.forces = read_forces(*forces, at / "forces");
@@ -641,7 +653,8 @@ scene load_scene(std::filesystem::path const& file, std::span<std::string const>
 
 physics::world build_world(scene const& s)
 {
-    physics::world w({.integrator = s.integrator, .substeps = s.substeps, .collisions = s.collisions});
+    physics::world w(
+        {.integrator = s.integrator, .substeps = s.substeps, .adaptive = s.adaptive, .collisions = s.collisions});
     for (auto const& wall : s.walls)
         w.add_wall(wall);
     for (auto const& o : s.obstacles)

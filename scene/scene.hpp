@@ -105,6 +105,7 @@ struct scene
     double dt = 0.0; ///< s per step, > 0
     int substeps = 1;
     physics::integrator_kind integrator = physics::integrator_kind::velocity_verlet;
+    physics::step_control adaptive; ///< the tolerance of an adaptive integrator
     force_settings forces;
     physics::collision_settings collisions;
     std::vector<physics::wall> walls; ///< including the six of `box`

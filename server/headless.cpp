@@ -112,6 +112,8 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
     summary["integrator_order"] = integrator.order;
     summary["integrator_exact"] =
         s.integrator == physics::integrator_kind::exact_constant_force && world.forces_are_constant();
+    if (integrator.adaptive)
+        summary["tolerance"] = s.adaptive.tolerance;
     nlohmann::ordered_json forces = nlohmann::json::array();
     for (auto const& model : world.forces())
         forces.push_back(model->name());
@@ -138,6 +140,8 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
             most_kinetic = std::max(most_kinetic, kinetic);
         }
     } catch (physics::singular_force_error const& e) {
+        summary["error"] = e.what();
+    } catch (physics::step_control_error const& e) {
         summary["error"] = e.what();
     }
     auto const elapsed = std::chrono::duration<double, std::milli>(
@@ -166,6 +170,17 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
             phases[std::string(physics::step_phase_names[p])] = 1e3 * seconds / static_cast<double>(completed);
     summary["phase_ms_per_step"] = std::move(phases);
     summary["force_evaluations"] = world.force_evaluations();
+    if (integrator.adaptive) {
+        // The steps the integrator chose inside the fixed ones, and the smallest it needed.
+        auto const& taken = world.integration_steps();
+        auto const seconds = [&](double step) {
+            return taken.accepted > 0 ? nlohmann::ordered_json(step) : nlohmann::ordered_json();
+        };
+        summary["integration_steps"] = {{"accepted", taken.accepted},
+                                        {"rejected", taken.rejected},
+                                        {"smallest", seconds(taken.smallest)},
+                                        {"largest", seconds(taken.largest)}};
+    }
     summary["energy_initial"] = initial.total;
     summary["energy_final"] = final ? nlohmann::ordered_json(final->total) : nlohmann::ordered_json();
     summary["energy_rel_drift"] =

@@ -591,8 +591,8 @@ void room::step_world()
         return;
     }
     // A step that fails changes nothing (world::step); the newer of the two bodies it names
-    // is removed and the step is taken again, a few times at most in one tick, so that the
-    // room keeps its rate. A step that leaves a body's state non-finite (an overflow no check foresaw)
+    // (or the one an adaptive integrator could not follow) is removed and the step is taken
+    // again, a few times at most in one tick, so that the room keeps its rate. A step that leaves a body's state non-finite (an overflow no check foresaw)
     // loses that body. Either way the world that goes on is finite, and every snapshot,
     // /healthz and /metrics count the fault.
     constexpr int max_attempts = 4;
@@ -607,6 +607,10 @@ void room::step_world()
                 return world_.bodies().contains(id) ? wire_id_of_index_[id.index] : 0;
             };
             remove_after_fault({newer(e.first) > newer(e.second) ? e.first : e.second}, e.what());
+        } catch (physics::step_control_error const& e) {
+            // The adaptive integrator could not meet its tolerance: the body whose error was
+            // the largest goes, as a body in a singular pair does.
+            remove_after_fault({world_.bodies().ids()[e.body_slot]}, e.what());
         }
     }
     if (auto const broken = world_.non_finite_bodies(); !broken.empty())

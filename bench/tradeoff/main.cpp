@@ -30,8 +30,8 @@ int main(int argc, char** argv)
     app.add_option("--date", header.date, "the date named in the report");
     app.add_option("--command", header.command, "the command named in the report")->capture_default_str();
     app.add_flag("--quick", quick, "tiny sizes and few settings: a smoke run, seconds");
-    app.add_option("--only", only, "run only these problems (projectile, kepler, coulomb, bounce, cradle, gas, "
-                                   "tree_error, tree_scaling)");
+    app.add_option("--only", only, "run only these problems (projectile, kepler, kepler_eccentric, close_encounter, "
+                                   "coulomb, bounce, cradle, gas, tree_error, tree_scaling)");
     CLI11_PARSE(app, argc, argv);
 
     problem_options options;
@@ -40,7 +40,8 @@ int main(int argc, char** argv)
         options.budget = {.min_repeats = 1, .max_repeats = 1, .min_total_seconds = 0.0, .single_run_enough = 0.0};
 
     std::vector<std::pair<std::string, std::function<study(problem_options const&)>>> const problems{
-        {"projectile", projectile}, {"kepler", kepler}, {"coulomb", coulomb_scattering},
+        {"projectile", projectile}, {"kepler", kepler}, {"kepler_eccentric", kepler_eccentric},
+        {"close_encounter", close_encounter}, {"coulomb", coulomb_scattering},
         {"bounce", bounce},         {"cradle", cradle}, {"gas", gas},
         {"tree_error", tree_error}, {"tree_scaling", tree_scaling}};
     for (auto const& name : only)

@@ -16,6 +16,8 @@ struct problem_options
 
 study projectile(problem_options const& options);
 study kepler(problem_options const& options);
+study kepler_eccentric(problem_options const& options);
+study close_encounter(problem_options const& options);
 study coulomb_scattering(problem_options const& options);
 study bounce(problem_options const& options);
 study cradle(problem_options const& options);

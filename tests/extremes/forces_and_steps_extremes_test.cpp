@@ -1,5 +1,5 @@
 // Forces and step sizes at the extremes: coincident bodies under 1/r² laws, dt = 0 and
-// dt = 1e6 s, and a run of a million steps.
+// dt = 1e6 s, a close encounter at 1e-9 m, and a run of a million steps.
 
 #include "extremes.hpp"
 
@@ -9,6 +9,8 @@
 
 #include <cmath>
 #include <memory>
+#include <numbers>
+#include <string>
 #include <vector>
 
 namespace kugel::extremes {
@@ -151,12 +153,20 @@ TEST(StepSize, AMillionSecondStepIsFiniteAndKeepsSpheresInTheBox)
     // dt = 1e6 s in a 100 m box under g = 9.81: a step lets a body fall ~5e12 m, which the
     // walls must stop. The integrator's answer is meaningless at this dt, but the state stays
     // finite, no sphere leaves the box (clamp_to_walls guarantees it in both modes), and the
-    // continuous mode may hit its event cap and finish the step discretely (counted).
+    // continuous mode may hit its event cap and finish the step discretely (counted). The
+    // adaptive integrator, which would follow the bodies' mutual orbits for the whole 1e6 s,
+    // may refuse the step at its cap of steps instead (step_control_error), changing nothing.
     for (auto const& info : integrator_table()) {
         for (collision_mode const mode : {collision_mode::discrete, collision_mode::continuous}) {
             world w = busy_world(info.kind, mode);
             for (int i = 0; i < 5; ++i) {
-                w.step(1e6);
+                auto const x = copy(w.bodies().positions());
+                try {
+                    w.step(1e6);
+                } catch (step_control_error const&) {
+                    EXPECT_TRUE(info.adaptive) << info.name;
+                    EXPECT_EQ(copy(w.bodies().positions()), x) << info.name;
+                }
                 ASSERT_TRUE(state_is_finite(w)) << info.name << " " << name(mode) << " " << i;
                 ASSERT_TRUE(motion_summary_is_finite(w));
                 ASSERT_EQ(w.escaped(), 0U) << info.name << " " << name(mode);
@@ -170,7 +180,9 @@ TEST(StepSize, AMillionSecondStepOfAnOrbitIsFiniteOrRefused)
 {
     // A Kepler pair stepped at 1e6 s (1.6e5 orbits per step) with softening 0: the bodies fly
     // apart or land anywhere. Each step either succeeds with a finite state or, if it lands
-    // two bodies on one point, refuses with singular_force_error and changes nothing.
+    // two bodies on one point, refuses with singular_force_error and changes nothing. The
+    // adaptive integrator follows the orbits instead, and refuses at its cap of steps
+    // (step_control_error), changing nothing too.
     for (auto const& info : integrator_table()) {
         world w({.integrator = info.kind});
         w.add_force(std::make_unique<newtonian_gravity>(1.0, 0.0));
@@ -182,10 +194,131 @@ TEST(StepSize, AMillionSecondStepOfAnOrbitIsFiniteOrRefused)
                 w.step(1e6);
             } catch (singular_force_error const&) {
                 EXPECT_EQ(copy(w.bodies().positions()), x);
+            } catch (step_control_error const&) {
+                EXPECT_TRUE(info.adaptive) << info.name;
+                EXPECT_EQ(copy(w.bodies().positions()), x);
             }
             ASSERT_TRUE(state_is_finite(w)) << info.name << " " << i;
         }
     }
+}
+
+// ---------------------------------------------------------------------------------------------
+// A close encounter
+
+/// Two unit masses on a Kepler orbit of semi-major axis 1 m and periapsis 1e-9 m
+/// (e = 1 − 1e-9), started at apoapsis with the centre of mass at rest; G = π²/2 makes the
+/// period 2 s, so 120 world steps of 1/60 s are one period and bring the pair back to
+/// apoapsis. At periapsis the bodies pass at 7e4 m/s each, within ~1e-14 s.
+struct close_encounter
+{
+    static constexpr double G = std::numbers::pi * std::numbers::pi / 2.0;
+    static constexpr double e = 1.0 - 1e-9;
+    static constexpr double period = 2.0;
+    static constexpr int ticks = 120;
+
+    static world make(integrator_kind kind, double tolerance = 1e-9, std::uint64_t max_steps = 100'000)
+    {
+        double const r = 1.0 + e;                            // apoapsis distance (a = 1)
+        double const v = std::sqrt(G * 2.0 * (1.0 - e) / r); // relative speed there
+        world w({.integrator = kind, .adaptive = {.tolerance = tolerance, .max_steps = max_steps}});
+        w.add_force(std::make_unique<newtonian_gravity>(G, 0.0));
+        w.add_body(body_at({-r / 2, 0, 0}, {0, -v / 2, 0}, 1.0));
+        w.add_body(body_at({r / 2, 0, 0}, {0, v / 2, 0}, 1.0));
+        return w;
+    }
+};
+
+/// The relative orbit's elements, from the separation and relative velocity.
+struct elements
+{
+    double energy;         ///< J, the pair's total energy
+    double semi_major;     ///< m, −G·m₁m₂/(2E); negative once unbound
+    double eccentricity;   ///< |e|, from the Laplace–Runge–Lenz vector
+    vec3 angular_momentum; ///< kg·m²/s, about the centre of mass
+    vec3 separation;       ///< m, x₂ − x₁
+};
+
+elements elements_of(world const& w)
+{
+    vec3 const r = w.bodies().positions()[1] - w.bodies().positions()[0];
+    vec3 const v = w.bodies().velocities()[1] - w.bodies().velocities()[0];
+    double const mu = close_encounter::G * 2.0, reduced_mass = 0.5;
+    double const energy = measure(w).total;
+    vec3 const h = r.cross(v);
+    return {energy, -close_encounter::G / (2.0 * energy), (v.cross(h) / mu - r.normalized()).norm(),
+            reduced_mass * h, r};
+}
+
+TEST(CloseEncounter, FixedStepsLoseThePairAtA1e9MetrePeriapsis)
+{
+    // At 1/60 s per step the periapsis passage (~1e-14 s) falls inside one step: velocity
+    // Verlet and RK4 kick the pair with the force at a point of the orbit that is not where
+    // it passes, and the pair leaves unbound (its energy changes sign). What the adaptive
+    // integrator below is for.
+    for (auto const kind : {integrator_kind::velocity_verlet, integrator_kind::rk4}) {
+        world w = close_encounter::make(kind);
+        for (int i = 0; i < close_encounter::ticks; ++i)
+            w.step(close_encounter::period / close_encounter::ticks);
+        ASSERT_TRUE(state_is_finite(w));
+        EXPECT_GT(elements_of(w).energy, 0.0) << info(kind).name;
+    }
+}
+
+TEST(CloseEncounter, DormandPrinceKeepsTheOrbitThroughA1e9MetrePeriapsis)
+{
+    // Over one period at 1/60 s per step, with tolerance 1e-12. Energy: at periapsis the
+    // kinetic and potential energies are each 1/(1 − e) = 1e9 times |E|, so a relative error
+    // of the speeds there moves E by 2e9 times as much: rounding alone (1.1e-16 per operation)
+    // over the ~10⁴ steps the passage takes costs ~1e-5 of |E| if it adds up as a random walk
+    // (√10⁴ · 1.1e-16 · 2e9 ≈ 2e-5). Measured 4.6e-6; the bound 1e-4 is what doubles allow in
+    // this frame with room, and six orders of magnitude below the fixed-step failure above.
+    // Angular momentum and the Laplace–Runge–Lenz vector do not go through the cancellation:
+    // 1e-9 of their size (measured ~1e-12). The pair is back at apoapsis within the same
+    // relative error as its energy (the period depends on a only: δP/P = 1.5·δa/a).
+    world w = close_encounter::make(integrator_kind::dormand_prince, 1e-12);
+    elements const start = elements_of(w);
+    for (int i = 0; i < close_encounter::ticks; ++i)
+        w.step(close_encounter::period / close_encounter::ticks);
+    ASSERT_TRUE(state_is_finite(w));
+    elements const end = elements_of(w);
+    EXPECT_LT(end.energy, 0.0); // still bound
+    EXPECT_LE(std::abs(end.energy / start.energy - 1.0), 1e-4);
+    EXPECT_LE(std::abs(end.semi_major / start.semi_major - 1.0), 1e-4);
+    EXPECT_LE((end.angular_momentum - start.angular_momentum).norm(), 1e-9 * start.angular_momentum.norm());
+    EXPECT_NEAR(end.semi_major * (1.0 - end.eccentricity), 1e-9, 1e-9 * 1e-9 / (1.0 - close_encounter::e)); // periapsis
+    EXPECT_LE((end.separation - start.separation).norm(), 1e-4 * start.separation.norm());
+    // It did so with steps of its own far below the world's: the passage needs ~1e-16 s.
+    EXPECT_LT(w.integration_steps().smallest, 1e-15);
+    EXPECT_GT(w.integration_steps().accepted, 1000U);
+}
+
+TEST(CloseEncounter, ATooLooseToleranceIsRefusedNotAnsweredWrongly)
+{
+    // At tolerance 1e-6 the passage's energy error (1e-6 · 2e9 · |E|) is far more than the
+    // energy: the pair falls into an orbit of nanometres that the step cannot cover in the
+    // rest of the tick. The integrator stops at its cap of steps, and the world step refuses
+    // with step_control_error, the world as it was before the step.
+    world w = close_encounter::make(integrator_kind::dormand_prince, 1e-6, 20'000);
+    double const dt = close_encounter::period / close_encounter::ticks;
+    for (int i = 0; i < close_encounter::ticks; ++i) {
+        auto const x = copy(w.bodies().positions());
+        auto const v = copy(w.bodies().velocities());
+        double const time = w.time();
+        try {
+            w.step(dt);
+        } catch (step_control_error const& error) {
+            std::string const what = error.what();
+            EXPECT_NE(what.find("tolerance 1e-06"), std::string::npos) << what;
+            EXPECT_NE(what.find("20000 steps"), std::string::npos) << what;
+            EXPECT_EQ(copy(w.bodies().positions()), x);
+            EXPECT_EQ(copy(w.bodies().velocities()), v);
+            EXPECT_EQ(w.time(), time);
+            EXPECT_LT(error.body_slot, 2U);
+            return;
+        }
+    }
+    ADD_FAILURE() << "the pair went through the passage at tolerance 1e-6 without a refusal";
 }
 
 // ---------------------------------------------------------------------------------------------

@@ -9,6 +9,8 @@
 #include <numbers>
 #include <set>
 #include <string>
+#include <utility>
+#include <vector>
 
 namespace kugel::physics {
 namespace {
@@ -178,7 +180,7 @@ TEST(IntegratorTable, NamesAreUniqueAndRoundTrip)
         EXPECT_EQ(integrator_from_name(entry.name), entry.kind);
         EXPECT_EQ(&info(entry.kind), &entry);
     }
-    EXPECT_EQ(names.size(), 5U);
+    EXPECT_EQ(names.size(), 6U);
     EXPECT_FALSE(integrator_from_name("leapfrog9").has_value());
 }
 
@@ -194,6 +196,114 @@ TEST(IntegratorTable, DeclaredForceEvaluationsAreWhatAStepCosts)
                   10U * static_cast<unsigned>(entry.force_evaluations))
             << entry.name;
     }
+}
+
+// Dormand–Prince 5(4) with a tolerance so loose that every step is accepted whole: one step
+// of its own per world step, so it is a fixed-step fifth-order method and halving h divides
+// the error by 2^5 (within 0.2 of the order, as for the fixed-step integrators above).
+TEST(DormandPrince, IsFifthOrderWhenEveryStepIsTakenWhole)
+{
+    double const T = 1.0;
+    std::vector<double> errors;
+    for (int const steps : {20, 40, 80}) {
+        world w({.integrator = integrator_kind::dormand_prince, .substeps = 1, .adaptive = {.tolerance = 0.5}});
+        w.add_force(std::make_unique<newtonian_gravity>(1.0, 0.0));
+        w.add_body({vec3::Zero(), vec3::Zero(), 1.0, 0.0, 0.0, true});
+        w.add_body({vec3(1, 0, 0), vec3(0, 1, 0), 1e-3, 0.0, 0.0, false});
+        for (int i = 0; i < steps; ++i)
+            w.step(T / steps);
+        ASSERT_EQ(w.integration_steps().accepted, static_cast<std::uint64_t>(steps));
+        ASSERT_EQ(w.integration_steps().rejected, 0U);
+        EXPECT_EQ(w.integration_steps().smallest, T / steps);
+        errors.push_back((w.bodies().positions()[1] - vec3(std::cos(T), std::sin(T), 0.0)).norm());
+    }
+    EXPECT_NEAR(std::log2(errors[0] / errors[1]), 5.0, 0.2) << errors[0] << " " << errors[1];
+    EXPECT_NEAR(std::log2(errors[1] / errors[2]), 5.0, 0.2) << errors[1] << " " << errors[2];
+}
+
+/// Two unit masses on a Kepler orbit of semi-major axis 1 and eccentricity e, started at
+/// apoapsis on the x axis with the centre of mass at rest; G = π²/2 makes the period 2 s.
+world eccentric_pair(integrator_kind kind, double e, double tolerance = 1e-9)
+{
+    double const G = pi * pi / 2.0, M = 2.0;
+    double const r = 1.0 + e;                          // apoapsis distance (a = 1)
+    double const v = std::sqrt(G * M * (1.0 - e) / r); // speed there (vis-viva)
+    world w({.integrator = kind, .substeps = 1, .adaptive = {.tolerance = tolerance}});
+    w.add_force(std::make_unique<newtonian_gravity>(G, 0.0));
+    w.add_body({vec3(-r / 2, 0, 0), vec3(0, -v / 2, 0), 1.0, 0.0, 0.0, false});
+    w.add_body({vec3(r / 2, 0, 0), vec3(0, v / 2, 0), 1.0, 0.0, 0.0, false});
+    return w;
+}
+
+struct orbit_result
+{
+    double energy_error;   ///< |E − E₀|/|E₀| after one period
+    double position_error; ///< m, |r − r₀| of the separation after one period
+    std::uint64_t accepted;
+};
+
+orbit_result one_period(double e, double tolerance, int ticks)
+{
+    world w = eccentric_pair(integrator_kind::dormand_prince, e, tolerance);
+    double const e0 = measure(w).total;
+    vec3 const r0 = w.bodies().positions()[1] - w.bodies().positions()[0];
+    for (int i = 0; i < ticks; ++i)
+        w.step(2.0 / ticks);
+    EXPECT_NEAR(w.time(), 2.0, 1e-15);
+    vec3 const r = w.bodies().positions()[1] - w.bodies().positions()[0];
+    return {std::abs(measure(w).total / e0 - 1.0), (r - r0).norm(), w.integration_steps().accepted};
+}
+
+// Kepler e = 0.99 at 60 world steps per period, which fixed steps cannot take (Verlet and RK4
+// end up unbound: the error is larger than the energy). The controller keeps each of its
+// steps' velocity error below tolerance × speed, so a step changes the kinetic energy K by at
+// most 2·tolerance·K, and K ≤ |E|·(1 + e)/(1 − e) = 199·|E| on this orbit: after N steps the
+// energy is within 2·N·199·tolerance of |E|, a bound that holds whatever the errors' signs.
+// The pair returns to apoapsis within the same relative bound of its 2 m separation. And the
+// error follows the tolerance: a hundred times smaller a tolerance, at least ten times less
+// error (measured: about 200 times).
+TEST(DormandPrince, EccentricOrbitReturnsWithinWhatTheToleranceBounds)
+{
+    double const e = 0.99;
+    for (auto const kind : {integrator_kind::velocity_verlet, integrator_kind::rk4}) {
+        world w = eccentric_pair(kind, e);
+        double const e0 = measure(w).total;
+        for (int i = 0; i < 60; ++i)
+            w.step(2.0 / 60);
+        EXPECT_GT(std::abs(measure(w).total / e0 - 1.0), 1.0) << info(kind).name;
+    }
+    orbit_result const loose = one_period(e, 1e-8, 60);
+    orbit_result const tight = one_period(e, 1e-10, 60);
+    for (auto const& [result, tolerance] : {std::pair{loose, 1e-8}, std::pair{tight, 1e-10}}) {
+        double const bound = 2.0 * static_cast<double>(result.accepted) * (1.0 + e) / (1.0 - e) * tolerance;
+        EXPECT_LE(result.energy_error, bound) << tolerance;
+        EXPECT_LE(result.position_error, 2.0 * bound) << tolerance;
+    }
+    EXPECT_GE(loose.energy_error / tight.energy_error, 10.0) << loose.energy_error << " " << tight.energy_error;
+    EXPECT_GE(loose.position_error / tight.position_error, 10.0);
+    EXPECT_GT(tight.accepted, loose.accepted); // what the smaller tolerance costs
+}
+
+// The steps it takes inside a world step land on the world step exactly, however many: the
+// clock after a period is the sum of the world steps, and the orbit is where a run of the
+// same world steps cut in three (substeps) puts it, to within the tolerance.
+TEST(DormandPrince, SubstepsOfTheWorldStepGiveTheSameOrbit)
+{
+    world one = eccentric_pair(integrator_kind::dormand_prince, 0.9, 1e-10);
+    world three({.integrator = integrator_kind::dormand_prince, .substeps = 3, .adaptive = {.tolerance = 1e-10}});
+    three.add_force(std::make_unique<newtonian_gravity>(pi * pi / 2.0, 0.0));
+    for (std::size_t i = 0; i < 2; ++i)
+        three.add_body({one.bodies().positions()[i], one.bodies().velocities()[i], 1.0, 0.0, 0.0, false});
+    for (int i = 0; i < 30; ++i) {
+        one.step(2.0 / 30);
+        three.step(2.0 / 30);
+    }
+    // Both hold each step's error to 1e-10 of the speed (at most ~10 m/s here); over the few
+    // hundred steps of a period they may part by about N·1e-10·|v|·T ≈ 1e-6 m at most. A step
+    // that landed off the world step's end would part them by its speed times the miss.
+    for (std::size_t i = 0; i < 2; ++i)
+        EXPECT_LE((one.bodies().positions()[i] - three.bodies().positions()[i]).norm(), 1e-6);
+    EXPECT_GT(one.integration_steps().accepted, 30U); // it did take steps of its own
 }
 
 } // namespace

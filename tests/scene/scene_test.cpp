@@ -231,6 +231,22 @@ INSTANTIATE_TEST_SUITE_P(
         bad_case{"lattice_too_dense",
                  R"({"dt": 0.1, "generators": [{"count": 1000, "mass": 1, "radius": 0.2, "placement": "lattice", "region": {"min": [0,0,0], "max": [1,1,1]}}]})",
                  "/generators/0: a lattice of 1000 spheres of radius 0.2 does not fit", false},
+        bad_case{"tolerance_without_adaptive_integrator", R"({"dt": 0.1, "tolerance": 1e-9})",
+                 "/tolerance: is the adaptive integrator's; this scene's integrator velocity_verlet takes fixed steps"},
+        bad_case{"tolerance_with_rk4", R"({"dt": 0.1, "integrator": "rk4", "tolerance": 1e-9})",
+                 "/tolerance: is the adaptive integrator's; this scene's integrator rk4"},
+        bad_case{"tolerance_zero", R"({"dt": 0.1, "integrator": "dormand_prince", "tolerance": 0})",
+                 "/tolerance: must be >= 1e-13 (below, rounding outweighs the error it measures) and < 1, got 0"},
+        bad_case{"tolerance_negative", R"({"dt": 0.1, "integrator": "dormand_prince", "tolerance": -1e-6})",
+                 "/tolerance: must be >= 1e-13"},
+        bad_case{"tolerance_too_small", R"({"dt": 0.1, "integrator": "dormand_prince", "tolerance": 1e-15})",
+                 "/tolerance: must be >= 1e-13 (below, rounding outweighs the error it measures) and < 1, got 1e-15"},
+        bad_case{"tolerance_one", R"({"dt": 0.1, "integrator": "dormand_prince", "tolerance": 1})",
+                 "/tolerance: must be >= 1e-13 (below, rounding outweighs the error it measures) and < 1, got 1"},
+        bad_case{"tolerance_as_string", R"({"dt": 0.1, "integrator": "dormand_prince", "tolerance": "1e-9"})",
+                 "/tolerance: must be a number, got string"},
+        bad_case{"tolerance_overflowing", R"({"dt": 0.1, "integrator": "dormand_prince", "tolerance": 1e999})",
+                 "not valid JSON", false},
         bad_case{"not_an_object", R"([1, 2])", "/: must be an object"}),
     [](auto const& p) { return std::string(p.param.what); });
 
@@ -267,6 +283,20 @@ TEST(SceneOverrides, TakeEffect)
     EXPECT_EQ(s.forces.gravity->softening, 0.5);
     EXPECT_EQ(s.forces.gravity->G, 1.0);
     EXPECT_EQ(s.name, "renamed");
+}
+
+TEST(SceneIntegrator, TheAdaptiveIntegratorsToleranceReachesTheWorld)
+{
+    scene const s = parse_scene(R"({"dt": 0.01, "integrator": "dormand_prince", "tolerance": 1e-11})", "test.json");
+    EXPECT_EQ(s.integrator, physics::integrator_kind::dormand_prince);
+    physics::world const w = build_world(s);
+    EXPECT_EQ(w.settings().adaptive.tolerance, 1e-11);
+    // without a tolerance, the default; and an override is checked like the file
+    EXPECT_EQ(parse_scene(R"({"dt": 0.01, "integrator": "dormand_prince"})", "test.json").adaptive.tolerance,
+              physics::step_control{}.tolerance);
+    std::string const adaptive_scene = R"({"dt": 0.01, "integrator": "dormand_prince"})";
+    EXPECT_NE(error_of(adaptive_scene, {"tolerance=0"}).find("/tolerance: must be >= 1e-13"), std::string::npos);
+    EXPECT_EQ(parse_scene(adaptive_scene, "test.json", std::vector<std::string>{"tolerance=1e-6"}).adaptive.tolerance, 1e-6);
 }
 
 TEST(SceneOverrides, CanNameANewForce)
