@@ -9,10 +9,6 @@
 
 namespace kugel::physics {
 
-void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
-                        std::span<obstacle const> obstacles, collision_bodies const& bodies,
-                        double h, collision_workspace& workspace, collision_stats& stats, parallel_for* loops);
-
 namespace {
 
 constexpr std::array<std::string_view, 3> mode_names{"off", "discrete", "continuous"};

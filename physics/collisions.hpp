@@ -84,6 +84,18 @@ struct collision_settings
     /// of the cost; results differ in the last bits. Off: every step by the step-by-step
     /// loop, whose results its tests pin bit for bit.
     bool event_calendar = true;
+    /// Discrete mode: bodies that move farther than sweep_fraction of their radius in a step
+    /// are swept: their paths, and those of the spheres near them, are taken through the
+    /// continuous mode's events in time order, against walls, boxes and spheres, before the
+    /// overlaps of the step are answered; every other body stays on the discrete path. Off,
+    /// such a body may pass through a sphere or a box, and is counted in
+    /// collision_stats::unswept_fast_bodies.
+    bool sweep = true;
+    /// The share of its radius a body must move in a step to be swept, in (0, 1]. Below a
+    /// radius per step, two spheres that meet head on end the step overlapping by less than
+    /// the sum of their radii, their centres not yet past each other: the discrete step finds
+    /// them and answers them along the right normal. Above it they may pass through.
+    double sweep_fraction = 1.0;
 };
 
 /// Counters since the world was made.
@@ -92,8 +104,17 @@ struct collision_stats
     std::uint64_t sphere_contacts = 0;   ///< sphere–sphere responses
     std::uint64_t wall_contacts = 0;     ///< sphere–wall responses
     std::uint64_t obstacle_contacts = 0; ///< sphere–box responses
-    std::uint64_t capped_steps = 0;      ///< continuous steps that hit an event cap
-    std::uint64_t events = 0;            ///< continuous-mode events processed
+    std::uint64_t capped_steps = 0;      ///< continuous steps (or discrete sweeps) that hit an event cap
+    std::uint64_t events = 0;            ///< continuous-mode events processed (the sweep's too)
+    /// Discrete mode: bodies that moved farther than sweep_fraction of their radius in a step
+    /// and were swept (once per body and step)
+    std::uint64_t swept_bodies = 0;
+    /// Discrete mode: bodies that moved that far and were not swept, or not to the end, each
+    /// a contact that may have been missed (a sphere passed through): the sweep off, its
+    /// events capped (then capped_steps counts the step too), a path not finite, or a body the
+    /// sweep sent on past the region swept around the fast ones. Zero while the sweep is on
+    /// and nothing was capped.
+    std::uint64_t unswept_fast_bodies = 0;
 
     std::uint64_t contacts() const { return sphere_contacts + wall_contacts + obstacle_contacts; }
 };
@@ -140,6 +161,14 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats,
                         step_timings& timings, parallel_for* loops = nullptr);
+
+/// The continuous mode's step over `bodies` alone (continuous/event_loop.cpp): every contact
+/// in time order along their paths, then each body at the end of the step; past an event cap,
+/// the step finished in discrete mode (in workspace.discrete) and counted in capped_steps.
+/// Bodies may be left inside a wall by rounding: resolve_collisions clamps them.
+void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
+                        std::span<obstacle const> obstacles, collision_bodies const& bodies,
+                        double h, collision_workspace& workspace, collision_stats& stats, parallel_for* loops);
 
 /// Pushes every sphere out of every wall it is inside and removes its velocity into the wall:
 /// the guarantee that no step leaves a position inside a wall.

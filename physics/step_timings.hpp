@@ -20,11 +20,12 @@ enum class step_phase : std::size_t {
     write_back,      ///< discrete: positions back to the bodies, the last wall clamp
     continuous,      ///< continuous: every event of the step in time order
     reorder,         ///< bodies moved into cell order (a large discrete world)
+    swept,           ///< discrete: the fast bodies' paths swept, and the spheres near them
 };
-inline constexpr std::size_t step_phase_count = 9;
+inline constexpr std::size_t step_phase_count = 10;
 inline constexpr std::array<std::string_view, step_phase_count> step_phase_names{
     "free_motion", "walls",      "obstacles",  "cells", "velocity_passes",
-    "position_passes", "write_back", "continuous", "reorder"};
+    "position_passes", "write_back", "continuous", "reorder", "swept"};
 
 /// Seconds spent in each phase since the world was made (wall-clock, on the calling thread:
 /// a phase on two threads counts once), while `on`. Off by default: a phase's clock reads

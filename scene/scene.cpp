@@ -368,7 +368,8 @@ physics::collision_settings read_collisions(json const& value, location const& a
 {
     object(value, at,
            {"mode", "broadphase", "restitution", "friction", "rest_speed", "sleep", "sleep_speed", "sleep_time",
-            "velocity_iterations", "position_iterations", "max_events_per_step", "max_events_per_body"});
+            "velocity_iterations", "position_iterations", "max_events_per_step", "max_events_per_body", "sweep",
+            "sweep_fraction"});
     physics::collision_settings c;
     c.mode = physics::collision_mode::discrete; // naming collisions turns them on
     if (auto const* mode = find(value, "mode")) {
@@ -410,6 +411,15 @@ physics::collision_settings read_collisions(json const& value, location const& a
     c.max_events_per_body = optional_field(
         value, "max_events_per_body", at, c.max_events_per_body,
         [](json const& v, location const& l) { return whole_number(v, l, 1, std::uint64_t{1} << 40U); });
+    c.sweep = optional_field(value, "sweep", at, c.sweep, boolean);
+    // Above one radius per step, spheres below the threshold could pass through each other,
+    // which the sweep is there to prevent; at 0 every body would be swept ("mode": "continuous").
+    c.sweep_fraction = optional_field(value, "sweep_fraction", at, c.sweep_fraction, [](json const& v, location const& l) {
+        double const x = number_at_least(v, l, 0.0, true);
+        if (x > 1.0)
+            l.fail("must be at most 1 (a share of the radius), got " + format(x));
+        return x;
+    });
     return c;
 }
 

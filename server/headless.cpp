@@ -199,6 +199,10 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
     summary["wall_collisions"] = contacts.wall_contacts;
     summary["obstacle_collisions"] = contacts.obstacle_contacts;
     summary["events_capped"] = contacts.capped_steps;
+    // The discrete mode's sweep of fast bodies (collisions.sweep): bodies swept, and fast
+    // bodies not swept, each a contact that may have been missed (zero while the sweep is on).
+    summary["swept_bodies"] = contacts.swept_bodies;
+    summary["unswept_fast_bodies"] = contacts.unswept_fast_bodies;
     summary["escaped"] = world.escaped();
     summary["max_overlap"] = world.max_overlap();
     auto const bounds = scene::scene_bounds(s, world);

@@ -202,6 +202,12 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
         for (std::size_t p = 0; p < physics::step_phase_count; ++p)
             m.sample("kugel_step_phase_seconds_total", {{"room", r->name()}, {"phase", physics::step_phase_names[p]}},
                      static_cast<double>(load(r->counters().phase_nanoseconds[p])) * 1e-9);
+    per_room({"kugel_swept_bodies_total", "counter",
+              "Discrete mode: bodies that moved farther than collisions.sweep_fraction of their radius in a step and were swept through its events."},
+             [&](room const& r) { return load(r.counters().swept_bodies); });
+    per_room({"kugel_unswept_fast_bodies_total", "counter",
+              "Discrete mode: bodies that moved that far and were not swept to the end of their step (the sweep off, an event cap): each a contact that may have been missed. Zero while the sweep is on."},
+             [&](room const& r) { return load(r.counters().unswept_fast_bodies); });
     per_room({"kugel_clients", "gauge", "WebSocket clients in a room."},
              [&](room const& r) { return load(r.counters().sessions); });
     per_room({"kugel_bodies", "gauge", "Bodies in a room's world."},

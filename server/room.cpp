@@ -512,6 +512,7 @@ void room::replace_world(scene::scene s)
     world_ = std::move(fresh);
     world_.time_phases(true);
     phase_seconds_seen_ = world_.timings();
+    collisions_seen_ = world_.collisions();
     world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
     welcome_ = std::move(welcome);
     dt_ = s.dt;
@@ -630,6 +631,10 @@ void room::count_phase_times()
             counters_.phase_nanoseconds[p] += static_cast<std::uint64_t>(added * 1e9);
     }
     phase_seconds_seen_ = now;
+    physics::collision_stats const& collisions = world_.collisions();
+    counters_.swept_bodies += collisions.swept_bodies - collisions_seen_.swept_bodies;
+    counters_.unswept_fast_bodies += collisions.unswept_fast_bodies - collisions_seen_.unswept_fast_bodies;
+    collisions_seen_ = collisions;
 }
 
 void room::remove_after_fault(std::vector<physics::body_id> const& bodies, std::string const& why)

@@ -39,6 +39,11 @@ struct room_counters
     std::atomic<std::uint64_t> step_faults{0};
     /// Nanoseconds the room's steps spent in each phase (physics/step_timings.hpp)
     std::array<std::atomic<std::uint64_t>, physics::step_phase_count> phase_nanoseconds{};
+    /// Discrete mode: bodies that moved farther than collisions.sweep_fraction of their radius
+    /// in a step and were swept, and those that were not (each a contact that may have been
+    /// missed; zero while the sweep is on): physics::collision_stats, summed over the room's worlds
+    std::atomic<std::uint64_t> swept_bodies{0};
+    std::atomic<std::uint64_t> unswept_fast_bodies{0};
 };
 
 /// One world and the clients watching it. Everything here runs on the room's strand: the
@@ -144,7 +149,8 @@ private:
     /// What `m` is told in its welcome: the room's, with its id, admin flag and caps.
     std::shared_ptr<std::string const> welcome_for(member const& m) const;
     void step_world();
-    /// Adds what the last step spent in each phase to counters_.phase_nanoseconds.
+    /// Adds what the last step spent in each phase to counters_.phase_nanoseconds, and the
+    /// bodies it swept (or did not) to counters_.
     void count_phase_times();
     bool snapshot_due();
     /// The world now, as a snapshot's columns.
@@ -209,6 +215,7 @@ private:
     std::unique_ptr<physics::thread_pool> physics_threads_;
     physics::world world_;
     physics::step_timings phase_seconds_seen_; ///< world_.timings() at the last count_phase_times()
+    physics::collision_stats collisions_seen_; ///< world_.collisions() at the last count_phase_times()
     double dt_;                        ///< s per tick
     bool paused_ = false;              ///< an admin paused the room: ticks go on, no steps
     protocol::welcome welcome_;        ///< all but the client id

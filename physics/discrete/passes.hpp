@@ -47,6 +47,10 @@ struct wall_pass_result
 /// 1. Each body on its own: a pending drift, its free acceleration noted, a bounce off any wall
 ///    it is found inside, and its cell numbered in the grid's last frame (wall_pass.cpp).
 wall_pass_result wall_pass(step_context const& step, discrete_workspace& ws, collision_stats& stats);
+/// 1b. The bodies that moved farther than the sweep's share of their radius, and the spheres
+///     near them, taken through the continuous mode's events (swept_pass.cpp); with the sweep
+///     off, only counted. Updates the extent and the cell keys for where they end.
+void swept_pass(step_context const& step, wall_pass_result& walls, discrete_workspace& ws, collision_stats& stats);
 /// 2. Spheres that overlap a box are pushed out and bounce by the wall rule (obstacle_pass.cpp).
 void obstacle_pass(step_context const& step, free_accelerations free_a, discrete_workspace& ws,
                    collision_stats& stats);

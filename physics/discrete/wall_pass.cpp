@@ -57,7 +57,11 @@ void walls_of_chunk(step_context const& step, std::span<vec3> free_a, cell_frame
 {
     collision_bodies const& b = step.bodies;
     double const h = step.h;
+    double const fraction = step.settings.sweep_fraction;
+    bool const sweep = step.settings.sweep;
     out.moved.clear();
+    out.fast.clear();
+    out.fast_start.clear();
     out.responses = 0;
     bool any_accelerated = false;
     double largest_change = 0.0; // of a velocity, squared
@@ -79,6 +83,18 @@ void walls_of_chunk(step_context const& step, std::span<vec3> free_a, cell_frame
             largest_change = std::max(largest_change, change.squaredNorm());
         }
         double const r = b.radius[i];
+        // Farther than the sweep's share of its radius: noted for the sweep (swept_pass.cpp),
+        // which then answers its walls too. One comparison for every other body.
+        double const reach = fraction * r;
+        vec3 const& from = drift_pending ? start : b.x0[i];
+        if (r > 0.0 && (b.x[i] - from).squaredNorm() > reach * reach) {
+            out.fast.push_back(i);
+            out.fast_start.push_back(from);
+            if (sweep) {
+                extent.add(b.x[i], r);
+                continue;
+            }
+        }
         if (!(r <= 0.0 || b.inverse_mass[i] == 0.0 || step.walls.clear(b.x[i], r))) {
             body_path path = drift_pending ? body_path{start, b.v[i], vec3::Zero(), 0.0}
                                            : body_path{b.x0[i], b.v0[i], accelerated ? free_a[i] : vec3::Zero(), 0.0};
@@ -130,8 +146,12 @@ wall_pass_result wall_pass(step_context const& step, discrete_workspace& ws, col
     ws.moved.clear();
     bool accelerated = false;
     double largest_change = 0.0;
+    ws.swept.fast.clear();
+    ws.swept.fast_start.clear();
     for (wall_chunk const& chunk : ws.wall_chunks) {
         ws.moved.insert(ws.moved.end(), chunk.moved.begin(), chunk.moved.end());
+        ws.swept.fast.insert(ws.swept.fast.end(), chunk.fast.begin(), chunk.fast.end());
+        ws.swept.fast_start.insert(ws.swept.fast_start.end(), chunk.fast_start.begin(), chunk.fast_start.end());
         stats.wall_contacts += chunk.responses;
         out.extent.add(chunk.extent);
         accelerated |= chunk.accelerated;

@@ -11,9 +11,12 @@
 
 #include <cstdint>
 #include <limits>
+#include <memory>
 #include <vector>
 
 namespace kugel::physics {
+
+class collision_workspace;
 
 /// The sphere pairs of one slab of the sphere grid and what the passes changed. Spheres are
 /// named by their position in the grid's cell order.
@@ -43,6 +46,32 @@ struct wall_chunk
     bool accelerated = false;         ///< some body's free motion changed its velocity
     double largest_change = 0.0;      ///< m/s, of a velocity in free motion
     sphere_extent extent;             ///< of the bodies where the pass left them
+    std::vector<std::uint32_t> fast;  ///< the spheres that moved farther than the sweep's share of their radius
+    std::vector<vec3> fast_start;     ///< and where each started the step
+};
+
+/// The sweep's (swept_pass.cpp): the fast bodies, the spheres near them, and their copies, on
+/// which the continuous mode's events run.
+struct swept_workspace
+{
+    std::vector<std::uint32_t> fast;  ///< body slots, ascending
+    std::vector<vec3> fast_start;     ///< m, where each started the step
+    std::vector<aabb> boxes;          ///< the fast bodies' reaches, then the paths of the spheres near them
+    std::vector<std::uint32_t> box_body; ///< body slot of each box
+    std::vector<box_pair> pairs;
+    broadphase_workspace broadphase;
+    std::vector<std::uint32_t> home;  ///< by body slot: the fast body's box that drew it in (or none)
+    std::vector<std::uint32_t> members; ///< the bodies swept: the fast ones and those near, ascending
+    std::vector<vec3> x, v, x0, v0;   ///< their copies
+    std::vector<double> inverse_mass, radius;
+    std::vector<vec3> v_in;           ///< m/s, each copy's velocity before the events
+    std::vector<std::uint32_t> moved_others; ///< the slow bodies the events changed
+    std::unique_ptr<collision_workspace> events; ///< the continuous mode's, over the copies
+
+    swept_workspace();
+    swept_workspace(swept_workspace&&) noexcept;
+    swept_workspace& operator=(swept_workspace&&) noexcept;
+    ~swept_workspace();
 };
 
 struct discrete_workspace
@@ -53,6 +82,7 @@ struct discrete_workspace
     std::vector<std::uint64_t> cell_keys; ///< cell key by body slot, from the wall pass
     std::vector<std::uint32_t> cell_x;    ///< with threads: and the cell's x-coordinate
     std::vector<std::uint32_t> moved;     ///< the spheres walls and boxes moved
+    swept_workspace swept;                ///< the fast bodies' sweep
 
     // Cells and near pairs
     sphere_grid grid;                   ///< the spheres in cell order

@@ -128,6 +128,13 @@ INSTANTIATE_TEST_SUITE_P(
         bad_case{"negative_sleep_time", R"({"dt": 0.1, "collisions": {"sleep_time": -0.5}})",
                  "/collisions/sleep_time: must be >= 0, got -0.5"},
         bad_case{"sleep_as_number", R"({"dt": 0.1, "collisions": {"sleep": 1}})", "/collisions/sleep: must be"},
+        bad_case{"sweep_as_string", R"({"dt": 0.1, "collisions": {"sweep": "yes"}})", "/collisions/sweep: must be"},
+        bad_case{"zero_sweep_fraction", R"({"dt": 0.1, "collisions": {"sweep_fraction": 0}})",
+                 "/collisions/sweep_fraction: must be > 0, got 0"},
+        bad_case{"sweep_fraction_above_one", R"({"dt": 0.1, "collisions": {"sweep_fraction": 1.5}})",
+                 "/collisions/sweep_fraction: must be at most 1 (a share of the radius), got 1.5"},
+        bad_case{"sweep_fraction_as_string", R"({"dt": 0.1, "collisions": {"sweep_fraction": "half"}})",
+                 "/collisions/sweep_fraction: must be a number, got string"},
         bad_case{"zero_dt", R"({"dt": 0})", "/dt: must be > 0, got 0"},
         bad_case{"unknown_force", R"({"dt": 0.1, "forces": {"magnetism": {}}})",
                  "/forces/magnetism: unknown field (known here: uniform_field, gravity, coulomb)"},
@@ -437,7 +444,8 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     scene const s = parse_scene(R"({
       "dt": 0.01,
       "collisions": {"mode": "continuous", "broadphase": "sweep_and_prune", "restitution": 0.5,
-                     "friction": 0.75, "rest_speed": 0.02, "max_events_per_step": 99, "max_events_per_body": 7},
+                     "friction": 0.75, "rest_speed": 0.02, "max_events_per_step": 99, "max_events_per_body": 7,
+                     "sweep": false, "sweep_fraction": 0.25},
       "box": {"min": [-1, -2, 0], "max": [1, 2, 3], "damping": 0.25, "friction": 0.5},
       "walls": [{"normal": [0, 0, 2], "offset": 4, "damping": 0.1}],
       "obstacles": [
@@ -453,6 +461,8 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     EXPECT_EQ(w.settings().collisions.rest_speed, 0.02);
     EXPECT_EQ(w.settings().collisions.max_events_per_step, 99U);
     EXPECT_EQ(w.settings().collisions.max_events_per_body, 7U);
+    EXPECT_FALSE(w.settings().collisions.sweep);
+    EXPECT_EQ(w.settings().collisions.sweep_fraction, 0.25);
     ASSERT_EQ(w.walls().size(), 7U);
     // the explicit wall, normalised: 2z = 4 is z = 2
     EXPECT_EQ(w.walls()[0].surface.normal, physics::vec3(0, 0, 1));
