@@ -1,6 +1,7 @@
 #include "connection.hpp"
 
 #include "protocol/codec.hpp"
+#include "protocol/compact.hpp"
 #include "url.hpp"
 
 #include <algorithm>
@@ -97,13 +98,16 @@ public:
         if (ec)
             return fail_to_connect("WebSocket handshake with " + to_string(url_) +
                                    " failed: " + ec.message());
-        if (!options_.name.empty()) {
+        if (!options_.name.empty() || options_.snapshots) {
             {
                 std::lock_guard lock(mutex_);
                 ++unsent_; // on_write counts every message down
             }
-            queue_write(std::make_shared<std::string const>(
-                protocol::encode(protocol::hello{protocol::protocol_version, options_.name})));
+            protocol::hello hello{.protocol = protocol::protocol_version};
+            if (!options_.name.empty())
+                hello.name = options_.name;
+            hello.snapshots = options_.snapshots;
+            queue_write(std::make_shared<std::string const>(protocol::encode(hello)));
         }
         do_read();
     }
@@ -139,6 +143,21 @@ public:
                 return;
             }
         auto decoded = protocol::decode_server_message(text);
+        // A compact snapshot is applied to the state held here (on the I/O thread only, and
+        // outside the lock: it is as large as the room) and handed over in the full form.
+        std::optional<protocol::snapshot> expanded;
+        std::string compact_failure;
+        if (decoded.message)
+            if (auto const* compact = std::get_if<protocol::compact_snapshot>(&*decoded.message)) {
+                auto applied = protocol::apply_compact(*compact, compact_held_ ? &*compact_held_ : nullptr);
+                if (applied.state) {
+                    expanded = protocol::to_snapshot(*applied.state);
+                    compact_held_ = std::move(applied.state);
+                } else {
+                    compact_held_.reset(); // what the server sends next can only be a keyframe
+                    compact_failure = "compact snapshot: " + applied.failure;
+                }
+            }
         auto const now = clock::now();
         std::lock_guard lock(mutex_);
         ++stats_.messages_received;
@@ -153,15 +172,27 @@ public:
             }
             return;
         }
-        std::visit([&](auto& m) { take(std::move(m), now); }, *decoded.message);
+        if (std::holds_alternative<protocol::compact_snapshot>(*decoded.message)) {
+            if (expanded) {
+                take(std::move(*expanded), now);
+            } else {
+                ++stats_.undecodable;
+                stats_.last_undecodable = std::move(compact_failure);
+            }
+        } else {
+            std::visit([&](auto& m) { take(std::move(m), now); }, *decoded.message);
+        }
         changed_.notify_all();
     }
+
+    void take(protocol::compact_snapshot const&, clock::time_point) {} // expanded above
 
     void take(protocol::welcome welcome, clock::time_point now)
     {
         // The newest welcome holds (after a hello that made this an admin, after an admin
         // loaded another scene); the connection opened with the first.
-        double const ratio = welcome.tick_rate / welcome.snapshot_rate;
+        double const ratio =
+            welcome.tick_rate / (welcome.snapshots ? welcome.snapshots->rate : welcome.snapshot_rate);
         expected_tick_gap_ =
             std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(ratio - 1e-9)));
         if (!welcome_)
@@ -612,6 +643,8 @@ private:
     std::vector<std::uint64_t> spawned_; ///< ids of the bodies our spawns made, in ack order
     std::deque<reply> unmatched_;
     std::deque<std::shared_ptr<protocol::snapshot const>> snapshots_;
+    /// The compact state of the last compact snapshot applied (I/O thread only).
+    std::optional<protocol::compact_state> compact_held_;
     std::shared_ptr<protocol::snapshot const> latest_;
     std::shared_ptr<protocol::snapshot const> for_callback_;
     bool stopping_callbacks_ = false;

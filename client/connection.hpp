@@ -42,8 +42,14 @@ public:
 
 struct connection_options
 {
-    /// Sent in a `hello` right after the welcome (the server logs it); empty sends no hello.
+    /// Sent in a `hello` right after the welcome (the server logs it); empty (and no
+    /// `snapshots`) sends no hello.
     std::string name = "kugel-client";
+    /// The snapshots to ask for in the hello; nullopt asks for nothing (the full form, exact
+    /// doubles: what scripts that compare values need). The compact form is decoded into the
+    /// full form's columns, positions and velocities to the quanta the welcome announces
+    /// (PROTOCOL.md); `kugel-client watch` and `load` ask for it.
+    std::optional<protocol::snapshot_request> snapshots;
     /// How long connecting (resolve, TCP, upgrade) and the welcome may take.
     std::chrono::milliseconds connect_timeout{10'000};
     /// Snapshots received and not yet taken; a full queue drops its oldest.

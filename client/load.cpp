@@ -303,11 +303,13 @@ struct load_client
     std::size_t reconnects = 0;
 };
 
-connection_options load_connection_options(std::size_t number)
+connection_options load_connection_options(std::size_t number,
+                                           std::optional<protocol::snapshot_request> const& snapshots)
 {
     connection_options o;
     o.name = "kugel-client load " + std::to_string(number);
     o.snapshot_ticks_only = true; // counted on the I/O thread; nobody takes them
+    o.snapshots = snapshots;
     o.kept_replies = 64;  // only spawn answers and the last command's are looked at, at once
     return o;
 }
@@ -341,7 +343,7 @@ load_report run_load(load_options options)
         auto& r = report.clients[i];
         r.number = i + 1;
         try {
-            clients[i].link = std::make_unique<connection>(options.url, load_connection_options(i + 1));
+            clients[i].link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options.snapshots));
             r.client_id = clients[i].link->welcome().client;
             r.stats.opened = clients[i].link->stats().opened;
             r.connections = 1;
@@ -430,7 +432,7 @@ load_report run_load(load_options options)
         c.leaving_until.reset();
         ++c.reconnects;
         try {
-            c.link = std::make_unique<connection>(options.url, load_connection_options(i + 1));
+            c.link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options.snapshots));
             r.client_id = c.link->welcome().client;
             ++r.connections;
             if (sending)

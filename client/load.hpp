@@ -1,5 +1,7 @@
 #pragma once
 
+#include "protocol/messages.hpp"
+
 // `kugel-client load`: N connections to one room for a fixed time, optionally sending
 // commands at a fixed rate, and what each of them saw.
 
@@ -30,6 +32,9 @@ struct load_options
     /// at the end each is read to see whether the server dropped it. Not in `clients`.
     std::size_t stalled = 0;
     std::uint64_t seed = 1;           ///< where spawns go and which way impulses push
+    /// What each client asks for in its hello: the compact form by default; nullopt asks
+    /// for nothing (the full form at the room's rate).
+    std::optional<protocol::snapshot_request> snapshots = protocol::snapshot_request{.form = "compact"};
     /// Polled while the load runs; true ends it early (Ctrl-C).
     std::function<bool()> stop_requested;
 };

@@ -41,10 +41,23 @@ std::chrono::milliseconds to_ms(double seconds)
     return std::chrono::milliseconds(static_cast<std::int64_t>(seconds * 1000.0));
 }
 
-int watch(std::string const& url, bool as_json, std::uint64_t count, double timeout)
+/// What --snapshots and --snapshot-rate ask for: nothing for "full" at the room's rate.
+std::optional<kugel::protocol::snapshot_request> snapshot_request(std::string const& form, double rate)
+{
+    if (form == "full" && rate <= 0.0)
+        return std::nullopt; // protocol 1 as it always was: no request at all
+    kugel::protocol::snapshot_request r{.form = form, .rate = std::nullopt};
+    if (rate > 0.0)
+        r.rate = rate;
+    return r;
+}
+
+int watch(std::string const& url, bool as_json, std::uint64_t count, double timeout,
+          std::optional<kugel::protocol::snapshot_request> snapshots)
 {
     connection_options options;
     options.name = "kugel-client watch";
+    options.snapshots = std::move(snapshots);
     options.connect_timeout = to_ms(timeout);
     connection link(url, options);
     auto const w = link.welcome();
@@ -197,6 +210,20 @@ int main(int argc, char** argv)
     load_command->add_option("--seed", load_opts.seed, "Seed for where spawns go and impulses push")
         ->capture_default_str();
     load_command->add_flag("--json", load_json, "Print the report as JSON");
+    std::string snapshot_form = "compact";
+    double snapshot_rate = 0.0;
+    for (CLI::App* command : {watch_command, load_command}) {
+        command
+            ->add_option("--snapshots", snapshot_form,
+                         "Snapshot form to ask for: compact (quantized keyframes and deltas, decoded "
+                         "here; protocol/PROTOCOL.md) or full")
+            ->check(CLI::IsMember({"compact", "full"}))
+            ->capture_default_str();
+        command->add_option("--snapshot-rate", snapshot_rate,
+                            "Snapshots per second to ask for (0: the room's rate)")
+            ->check(CLI::Range(0.0, 10000.0))
+            ->capture_default_str();
+    }
 
     try {
         app.parse(argc, argv);
@@ -212,9 +239,11 @@ int main(int argc, char** argv)
 
     try {
         if (*watch_command)
-            return watch(watch_url, watch_json, watch_count, watch_timeout);
+            return watch(watch_url, watch_json, watch_count, watch_timeout,
+                         snapshot_request(snapshot_form, snapshot_rate));
         if (*run_command)
             return run(script_file, run_url, run_timeout, quiet, cleanup);
+        load_opts.snapshots = snapshot_request(snapshot_form, snapshot_rate);
         return load(load_opts, load_json);
     } catch (url_error const& e) {
         std::cerr << e.what() << '\n';

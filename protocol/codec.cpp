@@ -1,5 +1,6 @@
 #include "codec.hpp"
 
+#include <bit>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
@@ -177,10 +178,17 @@ void spoken_protocol(int const& version, location const& at)
 
 // The one table of wire names: every struct's fields, in the order they are written.
 
+constexpr auto fields(std::type_identity<snapshot_request>)
+{
+    return std::tuple{member("form", &snapshot_request::form),
+                      member("rate", &snapshot_request::rate, above_zero)};
+}
+
 constexpr auto fields(std::type_identity<hello>)
 {
     return std::tuple{member("protocol", &hello::protocol, spoken_protocol),
-                      member("name", &hello::name), member("admin_token", &hello::admin_token)};
+                      member("name", &hello::name), member("admin_token", &hello::admin_token),
+                      member("snapshots", &hello::snapshots)};
 }
 
 constexpr auto fields(std::type_identity<body_spec>)
@@ -269,6 +277,15 @@ constexpr auto fields(std::type_identity<session_limits>)
                       member("max_bodies_per_client", &session_limits::max_bodies_per_client)};
 }
 
+constexpr auto fields(std::type_identity<snapshot_stream>)
+{
+    return std::tuple{member("form", &snapshot_stream::form),
+                      member("rate", &snapshot_stream::rate, above_zero),
+                      member("position_quantum", &snapshot_stream::position_quantum, above_zero),
+                      member("velocity_quantum", &snapshot_stream::velocity_quantum, above_zero),
+                      member("keyframe_interval", &snapshot_stream::keyframe_interval, above_zero)};
+}
+
 constexpr auto fields(std::type_identity<welcome>)
 {
     return std::tuple{member("protocol", &welcome::protocol, spoken_protocol),
@@ -279,7 +296,8 @@ constexpr auto fields(std::type_identity<welcome>)
                       member("snapshot_rate", &welcome::snapshot_rate, above_zero),
                       member("scene", &welcome::scene),
                       member("limits", &welcome::limits),
-                      with_default("admin", &welcome::admin)};
+                      with_default("admin", &welcome::admin),
+                      member("snapshots", &welcome::snapshots)};
 }
 
 constexpr auto fields(std::type_identity<ack>)
@@ -308,6 +326,39 @@ constexpr auto fields(std::type_identity<snapshot>)
     return std::tuple{member("tick", &snapshot::tick), member("time", &snapshot::time),
                       with_default("paused", &snapshot::paused), with_default("faults", &snapshot::faults),
                       member("bodies", &snapshot::bodies)};
+}
+
+constexpr auto fields(std::type_identity<compact_bodies>)
+{
+    return std::tuple{member("id", &compact_bodies::id),
+                      member("p", &compact_bodies::position),
+                      member("v", &compact_bodies::velocity),
+                      member("radius", &compact_bodies::radius),
+                      member("mass", &compact_bodies::mass),
+                      member("charge", &compact_bodies::charge),
+                      member("owner", &compact_bodies::owner)};
+}
+
+constexpr auto fields(std::type_identity<compact_moves>)
+{
+    return std::tuple{member("runs", &compact_moves::runs),
+                      member("p", &compact_moves::position),
+                      member("v", &compact_moves::velocity)};
+}
+
+constexpr auto fields(std::type_identity<compact_snapshot>)
+{
+    return std::tuple{member("tick", &compact_snapshot::tick),
+                      member("form", &compact_snapshot::form),
+                      member("base", &compact_snapshot::base),
+                      member("time", &compact_snapshot::time),
+                      with_default("paused", &compact_snapshot::paused),
+                      with_default("faults", &compact_snapshot::faults),
+                      member("q", &compact_snapshot::q),
+                      member("bodies", &compact_snapshot::bodies),
+                      member("moved", &compact_snapshot::moved),
+                      member("appeared", &compact_snapshot::appeared),
+                      member("vanished", &compact_snapshot::vanished)};
 }
 
 constexpr auto fields(std::type_identity<pong>)
@@ -371,6 +422,98 @@ void check_together(body_columns const& bodies, location const& at)
         expect(bodies.charge->size(), "charge", 1);
 }
 
+void check_together(snapshot_request const& request, location const& at)
+{
+    if (request.form && *request.form != "full" && *request.form != "compact")
+        (at / "form").fail(error_code::bad_value, "must be \"full\" or \"compact\", got " +
+                                                      dump(json(shortened(*request.form))));
+}
+
+void check_together(snapshot_stream const& stream, location const& at)
+{
+    if (stream.form != "full" && stream.form != "compact")
+        (at / "form").fail(error_code::bad_value, "must be \"full\" or \"compact\", got " +
+                                                      dump(json(shortened(stream.form))));
+}
+
+/// Gap-coded ids (the first id, then each less the one before) into the ids themselves:
+/// strictly increasing, none beyond 2^53 − 1.
+void ungap(std::vector<std::uint64_t>& ids, location const& at)
+{
+    std::uint64_t id = 0;
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+        if (i > 0 && ids[i] == 0)
+            (at / i).fail(error_code::bad_value, "must be >= 1: ids are gap-coded and strictly increasing");
+        if (ids[i] > max_safe_integer - id)
+            (at / i).fail(error_code::bad_value, "the id it gives is beyond 2^53 - 1");
+        id += ids[i];
+        ids[i] = id;
+    }
+}
+
+void check_sizes(std::size_t size, std::size_t wanted, location const& at)
+{
+    if (size != wanted)
+        at.fail(error_code::bad_value, "must hold " + std::to_string(wanted) + " numbers, got " +
+                                           std::to_string(size));
+}
+
+void check_together(compact_bodies& bodies, location const& at)
+{
+    ungap(bodies.id, at / "id");
+    std::size_t const n = bodies.size();
+    check_sizes(bodies.position.size(), 3 * n, at / "p");
+    check_sizes(bodies.velocity.size(), 3 * n, at / "v");
+    check_sizes(bodies.radius.size(), n, at / "radius");
+    check_sizes(bodies.mass.size(), n, at / "mass");
+    check_sizes(bodies.owner.size(), n, at / "owner");
+    if (bodies.charge)
+        check_sizes(bodies.charge->size(), n, at / "charge");
+    for (std::size_t i = 0; i < n; ++i) {
+        at_least_zero(bodies.radius[i], at / "radius" / i);
+        at_least_zero(bodies.mass[i], at / "mass" / i);
+    }
+}
+
+void check_together(compact_moves const& moves, location const& at)
+{
+    std::uint64_t moved = 0;
+    for (std::size_t i = 1; i < moves.runs.size(); i += 2) {
+        moved += moves.runs[i]; // each at most 2^53 − 1: the sum cannot wrap before the check
+        if (moved > max_safe_integer / 3)
+            (at / "runs" / i).fail(error_code::bad_value, "more moved bodies than a message holds");
+    }
+    check_sizes(moves.position.size(), static_cast<std::size_t>(3 * moved), at / "p");
+    check_sizes(moves.velocity.size(), static_cast<std::size_t>(3 * moved), at / "v");
+}
+
+void check_together(compact_snapshot& s, location const& at)
+{
+    if (s.form == "key") {
+        if (!s.bodies)
+            (at / "bodies").fail(error_code::missing_field, "missing (required in a keyframe)");
+        if (!s.q)
+            (at / "q").fail(error_code::missing_field, "missing (required in a keyframe)");
+        if (s.base || s.moved || s.appeared || s.vanished)
+            at.fail(error_code::bad_value, "a keyframe has no base, moved, appeared or vanished");
+        for (std::size_t k = 0; k < 2; ++k)
+            if (!((*s.q)[k] > 0.0))
+                (at / "q" / k).fail(error_code::bad_value, "must be > 0, got " + format((*s.q)[k]));
+    } else if (s.form == "delta") {
+        if (!s.base)
+            (at / "base").fail(error_code::missing_field, "missing (required in a delta)");
+        if (!(*s.base < s.tick))
+            (at / "base").fail(error_code::bad_value, "must be below the tick");
+        if (s.bodies || s.q)
+            at.fail(error_code::bad_value, "a delta has no bodies or q (its base's hold)");
+        if (s.vanished)
+            ungap(*s.vanished, at / "vanished");
+    } else {
+        (at / "form").fail(error_code::bad_value, "must be \"key\" or \"delta\", got " +
+                                                      dump(json(shortened(s.form))));
+    }
+}
+
 // Reading ---------------------------------------------------------------------------------
 
 double number(json const& value, location const& at)
@@ -418,6 +561,36 @@ void read_value(json const& value, location const& at, double& out)
 void read_value(json const& value, location const& at, std::uint64_t& out)
 {
     out = safe_integer(value, at);
+}
+
+/// A whole number from −(2^53 − 1) to 2^53 − 1 (a quantized coordinate).
+void read_value(json const& value, location const& at, std::int64_t& out)
+{
+    if (!value.is_number())
+        at.fail(error_code::wrong_type, "must be a whole number, got " + describe(value));
+    auto const limit = static_cast<std::int64_t>(max_safe_integer);
+    auto const refuse = [&] {
+        at.fail(error_code::bad_value, "must be a whole number from -" + std::to_string(limit) +
+                                           " to " + std::to_string(limit) + ", got " + dump(value));
+    };
+    if (value.is_number_unsigned()) {
+        auto const n = value.get<std::uint64_t>();
+        if (n > max_safe_integer)
+            refuse();
+        out = static_cast<std::int64_t>(n);
+        return;
+    }
+    if (value.is_number_integer()) {
+        auto const n = value.get<std::int64_t>();
+        if (n < -limit)
+            refuse();
+        out = n;
+        return;
+    }
+    double const x = value.get<double>();
+    if (!(std::abs(x) <= static_cast<double>(max_safe_integer) && x == std::floor(x)))
+        refuse();
+    out = static_cast<std::int64_t>(x);
 }
 
 void read_value(json const& value, location const& at, int& out)
@@ -539,7 +712,15 @@ std::variant<Types...> read_message(json const& doc, std::type_identity<std::var
     std::string const& name = type->get_ref<std::string const&>();
 
     std::optional<std::variant<Types...>> message;
+    // Both snapshot forms are "snapshot": a compact one says its `form`.
+    bool const has_form = doc.contains("form");
     auto const read_if_named = [&]<class T>(std::type_identity<T>) {
+        if constexpr (std::is_same_v<T, snapshot>)
+            if (has_form)
+                return;
+        if constexpr (std::is_same_v<T, compact_snapshot>)
+            if (!has_form)
+                return;
         if (!message && name == T::type) {
             T out;
             read_value(doc, root, out);
@@ -549,7 +730,12 @@ std::variant<Types...> read_message(json const& doc, std::type_identity<std::var
     (read_if_named(std::type_identity<Types>{}), ...);
     if (!message) {
         std::string known;
-        ((known += (known.empty() ? "" : ", ") + std::string(Types::type)), ...);
+        auto const add_known = [&](std::string_view t) {
+            if (known.find(std::string(t) + ",") == std::string::npos &&
+                !known.ends_with(std::string(t)))
+                known += (known.empty() ? "" : ", ") + std::string(t);
+        };
+        (add_known(Types::type), ...);
         (root / "type")
             .fail(error_code::unknown_type, "unknown message type " + dump(json(shortened(name))) +
                                                 " (known: " + known + ")");
@@ -950,6 +1136,45 @@ public:
         out_ += ']';
     }
 
+    /// Ids as the first, then each less the one before.
+    void gap_column(std::string_view name, std::vector<std::uint64_t> const& ids)
+    {
+        out_ += '"';
+        out_ += name;
+        out_ += "\":[";
+        std::uint64_t last = 0;
+        for (std::size_t i = 0; i < ids.size(); ++i) {
+            if (i > 0)
+                out_ += ',';
+            number(ids[i] - last);
+            last = ids[i];
+        }
+        out_ += ']';
+    }
+
+    /// Doubles, a run of equal ones written by copying the first's text (a scene's bodies
+    /// mostly share radius and mass: shortest-form conversion is the costly part).
+    void constant_column(std::string_view name, std::vector<double> const& values)
+    {
+        out_ += '"';
+        out_ += name;
+        out_ += "\":[";
+        std::size_t text_start = 0, text_size = 0;
+        for (std::size_t i = 0; i < values.size(); ++i) {
+            if (i > 0)
+                out_ += ',';
+            if (i > 0 && std::bit_cast<std::uint64_t>(values[i]) ==
+                             std::bit_cast<std::uint64_t>(values[i - 1])) {
+                out_.append(out_, text_start, text_size);
+                continue;
+            }
+            text_start = out_.size();
+            number(values[i]);
+            text_size = out_.size() - text_start;
+        }
+        out_ += ']';
+    }
+
     std::string take() { return std::move(out_); }
 
 private:
@@ -995,6 +1220,88 @@ std::string encode(pong const& message)
     return encode_message(message);
 }
 
+namespace {
+
+void write_bodies(snapshot_writer& w, compact_bodies const& b)
+{
+    w.raw("{");
+    w.gap_column("id", b.id);
+    w.raw(",");
+    w.column("p", b.position);
+    w.raw(",");
+    w.column("v", b.velocity);
+    w.raw(",");
+    w.constant_column("radius", b.radius);
+    w.raw(",");
+    w.constant_column("mass", b.mass);
+    if (b.charge) {
+        w.raw(",");
+        w.constant_column("charge", *b.charge);
+    }
+    w.raw(",");
+    w.column("owner", b.owner);
+    w.raw("}");
+}
+
+} // namespace
+
+// Written like the full form: straight into one string. `tick` comes right after `type` in
+// both forms, so a client that only counts snapshots finds it without parsing.
+std::string encode(compact_snapshot const& message)
+{
+    std::size_t const bodies = (message.bodies ? message.bodies->size() : 0) +
+                               (message.appeared ? message.appeared->size() : 0) +
+                               (message.moved ? message.moved->position.size() / 3 : 0);
+    snapshot_writer w(bodies / 2);
+    w.raw(R"({"type":"snapshot","tick":)");
+    w.number(message.tick);
+    w.raw(R"(,"form":")");
+    w.raw(message.form);
+    w.raw("\"");
+    if (message.base) {
+        w.raw(R"(,"base":)");
+        w.number(*message.base);
+    }
+    w.raw(R"(,"time":)");
+    w.number(message.time);
+    if (message.paused)
+        w.raw(R"(,"paused":true)");
+    if (message.faults > 0) {
+        w.raw(R"(,"faults":)");
+        w.number(message.faults);
+    }
+    if (message.q) {
+        w.raw(R"(,"q":[)");
+        w.number((*message.q)[0]);
+        w.raw(",");
+        w.number((*message.q)[1]);
+        w.raw("]");
+    }
+    if (message.bodies) {
+        w.raw(R"(,"bodies":)");
+        write_bodies(w, *message.bodies);
+    }
+    if (message.moved) {
+        w.raw(R"(,"moved":{)");
+        w.column("runs", message.moved->runs);
+        w.raw(",");
+        w.column("p", message.moved->position);
+        w.raw(",");
+        w.column("v", message.moved->velocity);
+        w.raw("}");
+    }
+    if (message.appeared) {
+        w.raw(R"(,"appeared":)");
+        write_bodies(w, *message.appeared);
+    }
+    if (message.vanished) {
+        w.raw(",");
+        w.gap_column("vanished", *message.vanished);
+    }
+    w.raw("}");
+    return w.take();
+}
+
 std::string encode(client_message const& message)
 {
     return std::visit([](auto const& m) { return encode_message(m); }, message);
@@ -1002,7 +1309,14 @@ std::string encode(client_message const& message)
 
 std::string encode(server_message const& message)
 {
-    return std::visit([](auto const& m) { return encode_message(m); }, message);
+    return std::visit(
+        []<class M>(M const& m) {
+            if constexpr (std::is_same_v<M, compact_snapshot>)
+                return encode(m);
+            else
+                return encode_message(m);
+        },
+        message);
 }
 
 } // namespace kugel::protocol

@@ -41,6 +41,7 @@ std::string encode(ack const& message);
 std::string encode(error const& message);
 std::string encode(snapshot const& message);
 std::string encode(pong const& message);
+std::string encode(compact_snapshot const& message);
 std::string encode(server_message const& message);
 
 } // namespace kugel::protocol

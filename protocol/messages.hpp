@@ -35,12 +35,28 @@ using vec3 = std::array<double, 3>;
 
 /// Optional first message: which protocol the client speaks, a name for logs, and the
 /// admin token that makes this connection an admin.
+/// What a client asks of the snapshots it is sent (hello.snapshots).
+struct snapshot_request
+{
+    /// "full" (every body in full, the default) or "compact" (quantized keyframes and
+    /// deltas, compact.hpp); absent keeps the form the connection has.
+    std::optional<std::string> form;
+    /// Hz, > 0: at most this many snapshots a second; absent or above the room's rate: the
+    /// room's rate.
+    std::optional<double> rate;
+
+    bool operator==(snapshot_request const&) const = default;
+};
+
+/// Optional first message: which protocol the client speaks, a name for logs, the admin
+/// token that makes this connection an admin, and the snapshots it wants.
 struct hello
 {
     static constexpr std::string_view type = "hello";
     std::optional<int> protocol; ///< must be protocol_version when given
     std::optional<std::string> name;
     std::optional<std::string> admin_token; ///< the server's --admin-token; never logged
+    std::optional<snapshot_request> snapshots;
 
     bool operator==(hello const&) const = default;
 };
@@ -214,6 +230,18 @@ struct session_limits
     bool operator==(session_limits const&) const = default;
 };
 
+/// The snapshots a connection is sent: the answer to hello.snapshots.
+struct snapshot_stream
+{
+    std::string form;              ///< "full" or "compact"
+    double rate = 0.0;             ///< Hz: the room's snapshot rate, or an integer part of it
+    double position_quantum = 0.0; ///< m, > 0: a compact position is an integer times this
+    double velocity_quantum = 0.0; ///< m/s, > 0
+    double keyframe_interval = 0.0; ///< s, > 0: a compact stream has a keyframe at least this often
+
+    bool operator==(snapshot_stream const&) const = default;
+};
+
 /// The server's first message on every connection, and again whenever what it says changes
 /// (the client became an admin, an admin loaded another scene).
 struct welcome
@@ -228,6 +256,8 @@ struct welcome
     scene_geometry scene;
     session_limits limits;
     bool admin = false; ///< this connection may send admin commands
+    /// What this connection's snapshots are; only in a welcome answering hello.snapshots.
+    std::optional<snapshot_stream> snapshots;
 
     bool operator==(welcome const&) const = default;
 };
@@ -294,6 +324,57 @@ struct pong
     bool operator==(pong const&) const = default;
 };
 
-using server_message = std::variant<welcome, ack, error, snapshot, pong>;
+/// The bodies of a compact snapshot (PROTOCOL.md, compact snapshots): sorted by id, each
+/// position and velocity an integer number of quanta. On the wire `id` is gap-coded (the
+/// first id, then each id less the one before); here it holds the ids themselves.
+struct compact_bodies
+{
+    std::vector<std::uint64_t> id;      ///< strictly increasing
+    std::vector<std::int64_t> position; ///< position quanta, 3 per body
+    std::vector<std::int64_t> velocity; ///< velocity quanta, 3 per body
+    std::vector<double> radius;         ///< m
+    std::vector<double> mass;           ///< kg
+    std::optional<std::vector<double>> charge; ///< C, when the scene has charges
+    std::vector<std::uint64_t> owner;   ///< the client that spawned it; 0: the scene's
+
+    std::size_t size() const { return id.size(); }
+    bool operator==(compact_bodies const&) const = default;
+};
+
+/// The bodies of a delta's base whose quantized state changed: `runs` alternates how many
+/// of the base's bodies (in id order) to skip and how many moved, and `position` holds each
+/// moved body's position less its prediction, `velocity` its velocity less the base's.
+struct compact_moves
+{
+    std::vector<std::uint64_t> runs;
+    std::vector<std::int64_t> position; ///< 3 per moved body
+    std::vector<std::int64_t> velocity; ///< 3 per moved body
+
+    bool operator==(compact_moves const&) const = default;
+};
+
+/// A snapshot in the compact form: a keyframe (`form` "key": every body, its constants and
+/// the quanta) or a delta against the snapshot of tick `base` (`form` "delta": the bodies
+/// that moved, appeared and vanished since). A client applies it with apply_compact().
+struct compact_snapshot
+{
+    static constexpr std::string_view type = "snapshot";
+    std::uint64_t tick = 0;
+    std::string form;       ///< "key" or "delta"
+    std::optional<std::uint64_t> base; ///< delta: the tick it applies to (< tick)
+    double time = 0.0;      ///< s
+    bool paused = false;
+    std::uint64_t faults = 0;
+    /// key: [position quantum (m), velocity quantum (m/s)]; a delta has its base's
+    std::optional<std::array<double, 2>> q;
+    std::optional<compact_bodies> bodies;   ///< key: every body
+    std::optional<compact_moves> moved;     ///< delta
+    std::optional<compact_bodies> appeared; ///< delta: bodies not in the base
+    std::optional<std::vector<std::uint64_t>> vanished; ///< delta: base ids gone (gap-coded on the wire)
+
+    bool operator==(compact_snapshot const&) const = default;
+};
+
+using server_message = std::variant<welcome, ack, error, snapshot, pong, compact_snapshot>;
 
 } // namespace kugel::protocol

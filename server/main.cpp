@@ -204,6 +204,20 @@ int main(int argc, char** argv)
                    "Snapshots per second (Hz), at most the tick rate")
         ->check(CLI::Range(0.001, 10000.0))
         ->capture_default_str();
+    app.add_option("--position-quantum", options.position_quantum,
+                   "m: compact snapshots write positions as integers of this (0: 1/10,000 of\n"
+                   "each scene's size, to the decade above)")
+        ->check(CLI::Range(0.0, 1e6))
+        ->capture_default_str();
+    app.add_option("--velocity-quantum", options.velocity_quantum,
+                   "m/s: compact snapshots write velocities as integers of this (0: about one\n"
+                   "position quantum per snapshot interval)")
+        ->check(CLI::Range(0.0, 1e9))
+        ->capture_default_str();
+    app.add_option("--keyframe-interval", options.keyframe_interval,
+                   "s: compact snapshot streams get a keyframe at least this often")
+        ->check(CLI::Range(0.001, 3600.0))
+        ->capture_default_str();
     app.add_option("--web-root", web_root,
                    "Directory of the page's static files. Without it the server serves the page\n"
                    "it finds in web/ next to the executable, share/kugel/web of its install\n"

@@ -46,6 +46,11 @@ struct server_options
     std::uint16_t port = 8080;   ///< 0 picks a free port (tests)
     double tick_rate = 60.0;     ///< Hz, world steps per second of wall time
     double snapshot_rate = 30.0; ///< Hz, <= tick_rate
+    /// m and m/s: the compact snapshots' quanta in every room; 0 chooses them from each
+    /// room's scene.
+    double position_quantum = 0.0;
+    double velocity_quantum = 0.0;
+    double keyframe_interval = 10.0; ///< s: a compact stream's keyframes at least this often
     std::filesystem::path web_root; ///< static files served over HTTP; empty serves none
     std::vector<room_spec> rooms;   ///< empty: one room "default" with the built-in scene
     std::size_t max_bodies = 20'000; ///< per room; a spawn beyond it: error room_full

@@ -106,6 +106,7 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
     // leave the camera looking at nothing).
     welcome_ = restored ? make_welcome(name_, scene_, scene::build_world(scene_), settings_)
                         : make_welcome(name_, scene_, world_, settings_);
+    quanta_ = quanta_for(scene_, welcome_);
     auto const ids = world_.bodies().ids();
     for (std::size_t slot = 0; slot < ids.size(); ++slot) {
         physics::body_id const id = ids[slot];
@@ -259,11 +260,59 @@ void room::grant_admin(std::shared_ptr<websocket_session> session)
     });
 }
 
+protocol::quanta room::quanta_for(scene::scene const&, protocol::welcome const& w) const
+{
+    // A position quantum of 1/10,000 of the scene's size, to the decade above (1 mm for a
+    // scene of a few metres): far below what a screen shows. A velocity quantum that moves
+    // a body about one position quantum between two snapshots, to the nearest decade: what
+    // a client's interpolation needs.
+    double const size = std::max(w.scene.bounds.radius, 1e-3);
+    double const position = settings_.position_quantum > 0.0
+                                ? settings_.position_quantum
+                                : std::pow(10.0, std::ceil(std::log10(size))) * 1e-4;
+    double const velocity =
+        settings_.velocity_quantum > 0.0
+            ? settings_.velocity_quantum
+            : std::pow(10.0, std::round(std::log10(position * settings_.snapshot_rate)));
+    return {position, velocity};
+}
+
+void room::request_snapshots(std::shared_ptr<websocket_session> session,
+                             protocol::snapshot_request request)
+{
+    net::post(strand_, [self = shared_from_this(), session = std::move(session), request] {
+        for (member& m : self->sessions_) {
+            if (m.client_id != session->client_id())
+                continue;
+            if (request.form)
+                m.compact = *request.form == "compact";
+            m.every = 1;
+            if (request.rate) {
+                // The whole share of the room's snapshots nearest below the rate asked for;
+                // at most one a minute's worth of skipping.
+                double const ratio = self->settings_.snapshot_rate / *request.rate;
+                double const cap = std::max(1.0, 60.0 * self->settings_.snapshot_rate);
+                m.every = static_cast<std::uint64_t>(std::clamp(std::ceil(ratio - 1e-9), 1.0, cap));
+            }
+            m.asked = true;
+            session->use_snapshots(m.compact, m.every);
+            session->send_notice(self->welcome_for(m));
+        }
+    });
+}
+
 std::shared_ptr<std::string const> room::welcome_for(member const& m) const
 {
     protocol::welcome welcome = welcome_;
     welcome.client = m.client_id;
     welcome.admin = m.admin;
+    if (m.asked)
+        welcome.snapshots = protocol::snapshot_stream{
+            .form = m.compact ? "compact" : "full",
+            .rate = settings_.snapshot_rate / static_cast<double>(m.every),
+            .position_quantum = quanta_.position,
+            .velocity_quantum = quanta_.velocity,
+            .keyframe_interval = settings_.keyframe_interval};
     if (!m.admin && settings_.client.max_bodies_per_client > 0)
         welcome.limits.max_bodies_per_client = settings_.client.max_bodies_per_client;
     return share(protocol::encode(welcome));
@@ -515,6 +564,7 @@ void room::replace_world(scene::scene s)
     collisions_seen_ = world_.collisions();
     world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
     welcome_ = std::move(welcome);
+    quanta_ = quanta_for(s, welcome_);
     dt_ = s.dt;
     send_charges_ = s.forces.coulomb.has_value();
     wire_id_of_index_.clear();
@@ -706,33 +756,56 @@ void room::send_snapshot()
     // The sessions that ended left the room; the others are this snapshot's audience.
     std::vector<std::shared_ptr<websocket_session>> audience;
     audience.reserve(sessions_.size());
+    bool any_full = false;
+    std::vector<std::uint64_t> chains; // the `every` of each compact client, once each
     std::erase_if(sessions_, [&](member const& m) {
         auto session = m.session.lock();
         if (!session)
             return true; // it ended: it left the room
         audience.push_back(std::move(session));
+        if (!m.compact)
+            any_full = true;
+        else if (std::find(chains.begin(), chains.end(), m.every) == chains.end())
+            chains.push_back(m.every);
         return false;
     });
     counters_.sessions = sessions_.size();
     if (audience.empty())
         return; // nobody to send it to: nothing to encode
     // Only the copy is made on the tick (about 0.2 ms for 10,000 bodies). Encoding (6 to 9 ms
-    // for 10,000 bodies, bench/README.md) runs on the sessions' threads, one snapshot at a
-    // time and in tick order: a snapshot due while the last is still being encoded is
-    // skipped, as a slow client skips snapshots. Its audience then hears the next one.
+    // for 10,000 bodies in full, bench/README.md) runs on the sessions' threads, one snapshot
+    // at a time and in tick order: a snapshot due while the last is still being encoded is
+    // skipped, as a slow client skips snapshots. Its audience then hears the next one. The
+    // compact chains never see a skipped snapshot, so their deltas stay consecutive.
     if (snapshot_encoding_.exchange(true)) {
         ++counters_.snapshots_skipped;
         return;
     }
-    net::post(background_, [self = shared_from_this(), snapshot = copy_snapshot(),
-                            audience = std::move(audience)] {
-        auto const bytes = share(protocol::encode(snapshot));
+    std::vector<protocol::body_owner> owners;
+    owners.reserve(owner_of_wire_id_.size());
+    for (auto const& [wire_id, client] : owner_of_wire_id_)
+        owners.push_back({wire_id, client});
+    std::sort(owners.begin(), owners.end(),
+              [](auto const& l, auto const& r) { return l.id < r.id; });
+    net::post(background_, [self = shared_from_this(), index = snapshot_index_++,
+                            snapshot = copy_snapshot(), owners = std::move(owners),
+                            q = quanta_, any_full, chains = std::move(chains),
+                            audience = std::move(audience)]() mutable {
+        auto compact = std::make_shared<protocol::compact_state const>(
+            protocol::quantize(snapshot, owners, q));
+        auto forms = std::make_shared<encoded_snapshot>(index, std::move(snapshot), compact);
+        self->chains_.encode(*forms, compact, chains, self->settings_.keyframe_interval,
+                             self->settings_.snapshot_rate);
+        std::size_t bytes = 0;
+        if (any_full)
+            bytes += forms->full()->size();
         // Counted before any session can send it: a client that has a snapshot finds it
         // in the count (/metrics, tests).
-        self->report_bytes_ += bytes->size();
+        self->report_bytes_ += bytes;
         ++self->counters_.snapshots;
+        std::shared_ptr<encoded_snapshot const> const shared = std::move(forms);
         for (auto const& session : audience)
-            session->send_snapshot(bytes);
+            session->send_snapshot(shared);
         self->snapshot_encoding_ = false; // after the sends: the next is queued behind them
     });
 }

@@ -1,6 +1,7 @@
 #pragma once
 
 #include "checkpoint.hpp"
+#include "encoded_snapshot.hpp"
 #include "metrics.hpp"
 #include "network.hpp"
 #include "options.hpp"
@@ -73,6 +74,13 @@ public:
         std::size_t physics_threads = 1;
         /// Bodies from which the world uses those threads (world::set_parallel_for).
         std::size_t physics_threads_from = physics::world::bodies_worth_sharing;
+        /// m and m/s: the compact form's quanta; 0 chooses them from the scene (room.cpp,
+        /// default_quanta).
+        double position_quantum = 0.0;
+        double velocity_quantum = 0.0;
+        /// s: a compact stream has a keyframe at least this often, besides those a client
+        /// needs (it joined, or skipped a delta's base).
+        double keyframe_interval = 10.0;
     };
 
     /// Builds the scene's world, or (given a checkpoint of this scene) the checkpoint's
@@ -115,6 +123,10 @@ public:
                 bool admin = false);
     /// The session proved itself an admin: it is sent a welcome saying so.
     void grant_admin(std::shared_ptr<websocket_session> session);
+    /// The session's hello asked for a snapshot form or rate: from the next snapshot on it
+    /// gets them, and it is sent a welcome saying what it gets (welcome.snapshots).
+    void request_snapshots(std::shared_ptr<websocket_session> session,
+                           protocol::snapshot_request request);
 
     /// The room's state now. Call it on the room's strand, or while nothing runs the room
     /// (before start, after the server's threads ended).
@@ -238,9 +250,17 @@ private:
         std::uint64_t client_id;
         std::weak_ptr<websocket_session> session; ///< a session leaves when it ends
         bool admin = false;
+        bool compact = false;    ///< it asked for the compact form
+        std::uint64_t every = 1; ///< it takes every n-th of the room's snapshots
+        bool asked = false;      ///< its hello asked for snapshots: welcomes say what it gets
     };
+    /// The quanta of the compact form for a scene: the server's, else from the scene's size.
+    protocol::quanta quanta_for(scene::scene const& s, protocol::welcome const& w) const;
     std::vector<member> sessions_;
     double snapshot_phase_ = 0.0; ///< snapshot_rate accumulated per tick, due at tick_rate
+    std::uint64_t snapshot_index_ = 0; ///< snapshots handed to the encoder
+    protocol::quanta quanta_;     ///< of the compact form, for the scene the room runs
+    snapshot_chains chains_;      ///< used by the encoder only, one snapshot at a time
 
     room_counters counters_;
     traffic_counters traffic_;

@@ -71,6 +71,11 @@ void check(server_options const& o)
                                         "' must be non-empty, without / ? # % or spaces");
     if (!o.state_dir.empty() && o.checkpoint_interval <= std::chrono::milliseconds::zero())
         throw std::invalid_argument("--checkpoint-interval must be > 0");
+    if (!(o.position_quantum >= 0.0 && o.velocity_quantum >= 0.0 && std::isfinite(o.position_quantum) &&
+          std::isfinite(o.velocity_quantum)))
+        throw std::invalid_argument("--position-quantum and --velocity-quantum must be >= 0 (0: from the scene)");
+    if (!(o.keyframe_interval > 0.0 && o.keyframe_interval <= 3600.0))
+        throw std::invalid_argument("--keyframe-interval must be in (0, 3600] s");
     if (o.io_niceness < 0 || o.io_niceness > 19)
         throw std::invalid_argument("--io-niceness must be in [0, 19]");
     if (o.physics_threads < 1 || o.physics_threads > 256)
@@ -164,7 +169,9 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
     state_->io_niceness = options.io_niceness;
     room::settings const config{options.tick_rate, options.snapshot_rate, options.max_bodies,
                                 options.client, options.state_dir, options.checkpoint_interval,
-                                options.physics_threads, options.physics_threads_from};
+                                options.physics_threads, options.physics_threads_from,
+                                options.position_quantum, options.velocity_quantum,
+                                options.keyframe_interval};
     if (!options.state_dir.empty()) {
         std::error_code ec;
         std::filesystem::create_directories(options.state_dir, ec);

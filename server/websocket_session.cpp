@@ -1,6 +1,7 @@
 #include "websocket_session.hpp"
 
 #include "admin_token.hpp"
+#include "encoded_snapshot.hpp"
 #include "room.hpp"
 
 #include "protocol/codec.hpp"
@@ -191,6 +192,12 @@ void websocket_session::handle_message(std::string_view text)
         named_ = named_ || hello->name.has_value();
         if (hello->admin_token)
             handle_admin_token(*hello->admin_token);
+        if (hello->snapshots) {
+            // Answered by a welcome, so counted as a command: a flood of them is slowed.
+            if (!take_command_token())
+                return refuse_rate_limited(std::nullopt);
+            room_->request_snapshots(shared_from_this(), *hello->snapshots);
+        }
         return;
     }
     if (!take_command_token())
@@ -275,10 +282,20 @@ void websocket_session::send_notice(std::shared_ptr<std::string const> bytes)
     });
 }
 
-void websocket_session::send_snapshot(std::shared_ptr<std::string const> bytes)
+void websocket_session::send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot)
 {
-    net::post(ws_.get_executor(), [self = shared_from_this(), bytes = std::move(bytes)]() mutable {
-        self->queue_snapshot(std::move(bytes));
+    net::post(ws_.get_executor(), [self = shared_from_this(), snapshot = std::move(snapshot)]() mutable {
+        self->queue_snapshot(std::move(snapshot));
+    });
+}
+
+void websocket_session::use_snapshots(bool compact, std::uint64_t every)
+{
+    net::post(ws_.get_executor(), [self = shared_from_this(), compact, every] {
+        if (compact != self->compact_)
+            self->compact_held_.reset(); // the first compact snapshot is a keyframe
+        self->compact_ = compact;
+        self->every_ = every;
     });
 }
 
@@ -302,18 +319,33 @@ void websocket_session::queue_reply(std::shared_ptr<std::string const> bytes)
     write_next();
 }
 
-void websocket_session::queue_snapshot(std::shared_ptr<std::string const> bytes)
+void websocket_session::queue_snapshot(std::shared_ptr<encoded_snapshot const> snapshot)
 {
-    if (closing_)
-        return;
+    if (closing_ || snapshot->index() % every_ != 0)
+        return; // closing, or not one of the share of snapshots the client asked for
     if (in_flight_ && clock::now() - write_started_ > limits_.write_stall) {
         bump(room_->traffic().stalled_clients);
         return drop_connection("not reading: a send has been pending too long");
     }
     if (latest_snapshot_)
         bump(room_->traffic().snapshots_dropped);
-    latest_snapshot_ = std::move(bytes); // a newer snapshot replaces an unsent one
+    latest_snapshot_ = std::move(snapshot); // a newer snapshot replaces an unsent one
     write_next();
+}
+
+std::shared_ptr<std::string const> websocket_session::bytes_of(encoded_snapshot const& snapshot)
+{
+    if (!compact_)
+        return snapshot.full();
+    // A delta only against the state the client holds; otherwise (it just joined, or its
+    // slot was replaced before the delta's base was written) the keyframe.
+    std::shared_ptr<std::string const> bytes;
+    if (compact_held_)
+        bytes = snapshot.delta_from(*compact_held_);
+    if (!bytes)
+        bytes = snapshot.keyframe();
+    compact_held_ = snapshot.tick();
+    return bytes;
 }
 
 void websocket_session::write_next()
@@ -326,7 +358,8 @@ void websocket_session::write_next()
         replies_.pop_front();
         bump(traffic.replies_out);
     } else if (latest_snapshot_) {
-        in_flight_ = std::move(latest_snapshot_);
+        in_flight_ = bytes_of(*latest_snapshot_);
+        latest_snapshot_.reset();
         bump(traffic.snapshots_out);
     } else {
         return;

@@ -13,6 +13,7 @@
 namespace kugel::server {
 
 class room;
+class encoded_snapshot;
 
 /// One WebSocket client of a room. Reads commands and hands them to the room; writes what
 /// the room sends back. The outgoing side is bounded, so that nothing a client does or fails
@@ -39,8 +40,12 @@ public:
     void send_reply(std::shared_ptr<std::string const> bytes);
     /// Queues a message that answers no command (a welcome sent again), like a reply.
     void send_notice(std::shared_ptr<std::string const> bytes);
-    /// Offers a snapshot; replaces any snapshot not yet sent.
-    void send_snapshot(std::shared_ptr<std::string const> bytes);
+    /// Offers a snapshot; replaces any snapshot not yet sent. Which of its forms is sent is
+    /// chosen when it is written (encoded_snapshot).
+    void send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
+    /// From the next snapshot on: the compact form or the full one, and every n-th of the
+    /// room's snapshots (the room's answer to hello.snapshots).
+    void use_snapshots(bool compact, std::uint64_t every);
     /// Closes with 1001 (going away): the server is shutting down.
     void shut_down();
 
@@ -59,7 +64,10 @@ private:
     void refuse_rate_limited(std::optional<std::uint64_t> ref);
 
     void queue_reply(std::shared_ptr<std::string const> bytes);
-    void queue_snapshot(std::shared_ptr<std::string const> bytes);
+    void queue_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
+    /// The bytes to send of a snapshot: the full form, a delta against what the client
+    /// holds, or the keyframe.
+    std::shared_ptr<std::string const> bytes_of(encoded_snapshot const& snapshot);
     void write_next();
     void on_write(beast::error_code ec, std::size_t bytes);
     void close_with(websocket::close_code code, std::string_view reason);
@@ -75,7 +83,12 @@ private:
     std::string peer_; ///< address:port, for logs
 
     std::deque<std::shared_ptr<std::string const>> replies_;
-    std::shared_ptr<std::string const> latest_snapshot_; ///< not yet sent
+    std::shared_ptr<encoded_snapshot const> latest_snapshot_; ///< not yet sent
+    bool compact_ = false;          ///< the client asked for the compact form
+    std::uint64_t every_ = 1;       ///< it takes the room's snapshots whose index is a multiple
+    /// The tick of the last compact snapshot written: the state the client holds, the only
+    /// base a delta it is sent may have.
+    std::optional<std::uint64_t> compact_held_;
     std::shared_ptr<std::string const> in_flight_;       ///< being written
     clock::time_point write_started_;
     /// Commands handed to the room and not answered yet: each gets exactly one answer.

@@ -291,3 +291,64 @@ TEST(Connection, NoServerIsAConnectionError)
 
 } // namespace
 } // namespace kugel::client
+
+namespace kugel::client {
+namespace {
+
+// A connection that asks for compact snapshots gets them in the full form's columns: the
+// same bodies as a connection of the full form sees at the same tick, each to half its
+// quantum, through spawns and removes.
+TEST(Connection, CompactSnapshotsDecodeToTheFullFormToTheQuantum)
+{
+    running_server s;
+    connection_options compact_options;
+    compact_options.snapshots = protocol::snapshot_request{.form = "compact", .rate = std::nullopt};
+    connection compact(s.url("fall"), compact_options);
+    connection full(s.url("fall"));
+    auto const by = std::chrono::steady_clock::now() + 10s;
+    while (!compact.welcome().snapshots && std::chrono::steady_clock::now() < by)
+        std::this_thread::sleep_for(10ms);
+    ASSERT_TRUE(compact.welcome().snapshots);
+    EXPECT_EQ(compact.welcome().snapshots->form, "compact");
+    EXPECT_FALSE(full.welcome().snapshots);
+    double const pq = compact.welcome().snapshots->position_quantum;
+    double const vq = compact.welcome().snapshots->velocity_quantum;
+
+    std::vector<std::uint64_t> mine;
+    int compared = 0;
+    for (int round = 0; round < 20; ++round) {
+        auto const ref = compact.send(ball_at({0.6 * (round % 5) - 1.2, 0.6 * (round / 5) - 1.2, 3.0}, 1.0 + round));
+        auto const answer = compact.await_reply(ref, 10s);
+        ASSERT_TRUE(answer);
+        if (auto const* ack = std::get_if<protocol::ack>(&*answer); ack && ack->id)
+            mine.push_back(*ack->id);
+        if (round % 3 == 2 && !mine.empty()) {
+            compact.send(protocol::remove{.ref = 0, .id = mine.front()});
+            mine.erase(mine.begin());
+        }
+        auto const c = compact.next_snapshot(10s);
+        ASSERT_NE(c, nullptr);
+        auto const f = full.wait_for_snapshot([&](protocol::snapshot const& x) { return x.tick >= c->tick; }, 1000, 10s);
+        ASSERT_EQ(f.outcome, wait_outcome::matched);
+        if (f.snapshot->tick != c->tick)
+            continue; // one of them skipped that tick
+        ASSERT_EQ(c->bodies.size(), f.snapshot->bodies.size());
+        for (std::size_t i = 0; i < f.snapshot->bodies.size(); ++i) {
+            auto const at = std::find(c->bodies.id.begin(), c->bodies.id.end(), f.snapshot->bodies.id[i]);
+            ASSERT_NE(at, c->bodies.id.end());
+            auto const j = static_cast<std::size_t>(at - c->bodies.id.begin());
+            for (std::size_t k = 0; k < 3; ++k) {
+                EXPECT_LE(std::abs(c->bodies.position[3 * j + k] - f.snapshot->bodies.position[3 * i + k]),
+                          0.5 * pq * (1 + 1e-9));
+                EXPECT_LE(std::abs(c->bodies.velocity[3 * j + k] - f.snapshot->bodies.velocity[3 * i + k]),
+                          0.5 * vq * (1 + 1e-9));
+            }
+        }
+        ++compared;
+    }
+    EXPECT_GT(compared, 5);
+    EXPECT_EQ(compact.stats().undecodable, 0U) << compact.stats().last_undecodable;
+}
+
+} // namespace
+} // namespace kugel::client

@@ -57,7 +57,13 @@ struct rate_limited_after ///< the frame sent `repeat` times: this many answered
 {
     int answered;
 };
-using expectation = std::variant<refused_with, closed_with, answered_with, no_answer, rate_limited_after>;
+struct welcomed_with ///< a hello asking for snapshots: a welcome saying what it gets
+{
+    std::string form;
+    double rate; ///< Hz
+};
+using expectation =
+    std::variant<refused_with, closed_with, answered_with, no_answer, rate_limited_after, welcomed_with>;
 
 struct hostile_case
 {
@@ -242,6 +248,26 @@ std::vector<hostile_case> catalogue()
         {"hello, protocol 1.5", R"({"type":"hello","protocol":1.5})", refused("bad_value", "/protocol")},
         {"hello, protocol 1e300", R"({"type":"hello","protocol":1e300})", refused("bad_value", "/protocol")},
 
+        // hello.snapshots: the form and rate a client asks for.
+        {"snapshots compact", R"({"type":"hello","snapshots":{"form":"compact"}})", welcomed_with{"compact", 30.0}},
+        {"snapshots full at 10 Hz", R"({"type":"hello","snapshots":{"form":"full","rate":10}})", welcomed_with{"full", 10.0}},
+        {"snapshots at 7 Hz: every 5th", R"({"type":"hello","snapshots":{"form":"compact","rate":7}})",
+         welcomed_with{"compact", 6.0}},
+        {"snapshots faster than the room", R"({"type":"hello","snapshots":{"rate":1e300}})", welcomed_with{"full", 30.0}},
+        {"snapshots at 1e-300 Hz: once a minute", R"({"type":"hello","snapshots":{"form":"compact","rate":1e-300}})",
+         welcomed_with{"compact", 30.0 / 1800.0}},
+        {"snapshots as a string", R"({"type":"hello","snapshots":"compact"})", refused("wrong_type", "/snapshots")},
+        {"snapshots as an array", R"({"type":"hello","snapshots":["compact"]})", refused("wrong_type", "/snapshots")},
+        {"snapshots of an unknown form", R"({"type":"hello","snapshots":{"form":"delta"}})",
+         refused("bad_value", "/snapshots/form")},
+        {"snapshots form as a number", R"({"type":"hello","snapshots":{"form":2}})", refused("wrong_type", "/snapshots/form")},
+        {"snapshots form null", R"({"type":"hello","snapshots":{"form":null}})", refused("wrong_type", "/snapshots/form")},
+        {"snapshots rate 0", R"({"type":"hello","snapshots":{"rate":0}})", refused("bad_value", "/snapshots/rate")},
+        {"snapshots rate -30", R"({"type":"hello","snapshots":{"rate":-30}})", refused("bad_value", "/snapshots/rate")},
+        {"snapshots rate as a string", R"({"type":"hello","snapshots":{"rate":"fast"}})",
+         refused("wrong_type", "/snapshots/rate")},
+        {"snapshots rate 1e999", R"({"type":"hello","snapshots":{"rate":1e999}})", refused("not_finite", "/snapshots/rate")},
+
         // Ids and refs that are not whole numbers below 2^53, and bodies that do not exist.
         {"id as a string", R"({"type":"impulse","ref":80,"id":"1","impulse":[0,0,1]})", refused("wrong_type", "/id", 80)},
         {"fractional id", R"({"type":"remove","ref":81,"id":1.5})", refused("bad_value", "/id", 81)},
@@ -404,6 +430,18 @@ bool send_and_check(checked_client& hostile, hostile_case const& c)
                 return true;
             } else if constexpr (std::is_same_v<E, no_answer>) {
                 return true; // the ping that follows must be the next answer
+            } else if constexpr (std::is_same_v<E, welcomed_with>) {
+                auto const answer = hostile.next_answer();
+                if (!answer) {
+                    ADD_FAILURE() << "closed with " << ws.close_code();
+                    return false;
+                }
+                EXPECT_EQ(answer->at("type"), "welcome") << answer->dump();
+                json const stream = answer->value("snapshots", json::object());
+                EXPECT_EQ(stream.value("form", ""), expected.form) << answer->dump();
+                EXPECT_DOUBLE_EQ(stream.value("rate", 0.0), expected.rate) << answer->dump();
+                EXPECT_GT(stream.value("position_quantum", 0.0), 0.0) << answer->dump();
+                return true;
             } else {
                 int answered = 0;
                 int limited = 0;

@@ -1,0 +1,72 @@
+#include "encoded_snapshot.hpp"
+
+#include "protocol/codec.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+namespace kugel::server {
+
+encoded_snapshot::encoded_snapshot(std::uint64_t index, protocol::snapshot full,
+                                   std::shared_ptr<protocol::compact_state const> compact)
+    : index_(index), full_snapshot_(std::move(full)), compact_(std::move(compact))
+{
+}
+
+std::shared_ptr<std::string const> const& encoded_snapshot::full() const
+{
+    std::call_once(full_once_, [&] {
+        full_ = std::make_shared<std::string const>(protocol::encode(full_snapshot_));
+    });
+    return full_;
+}
+
+std::shared_ptr<std::string const> const& encoded_snapshot::keyframe() const
+{
+    std::call_once(keyframe_once_, [&] {
+        keyframe_ = std::make_shared<std::string const>(protocol::encode(protocol::keyframe(*compact_)));
+    });
+    return keyframe_;
+}
+
+std::shared_ptr<std::string const> encoded_snapshot::delta_from(std::uint64_t base) const
+{
+    for (delta_form const& d : deltas_)
+        if (d.base == base)
+            return d.bytes;
+    return nullptr;
+}
+
+void snapshot_chains::encode(encoded_snapshot& s,
+                             std::shared_ptr<protocol::compact_state const> const& now,
+                             std::vector<std::uint64_t> const& every, double keyframe_seconds,
+                             double room_snapshot_rate)
+{
+    std::erase_if(chains_, [&](chain const& c) {
+        return std::find(every.begin(), every.end(), c.every) == every.end();
+    });
+    for (std::uint64_t const n : every)
+        if (std::none_of(chains_.begin(), chains_.end(), [&](chain const& c) { return c.every == n; }))
+            chains_.push_back({n, nullptr, 0});
+    for (chain& c : chains_) {
+        if (s.index() % c.every != 0)
+            continue;
+        // Snapshots of this chain between forced keyframes: at least one.
+        double const per_keyframe = keyframe_seconds * room_snapshot_rate / static_cast<double>(c.every);
+        bool const keyframe_due =
+            static_cast<double>(c.since_keyframe + 1) >= std::max(per_keyframe, 1.0);
+        bool delta_sent = false;
+        if (c.last && !keyframe_due) {
+            delta_sent = s.delta_from(c.last->tick) != nullptr; // another chain's, same base
+            if (!delta_sent)
+                if (auto const d = protocol::delta(*c.last, *now)) {
+                    s.add_delta({c.last->tick, std::make_shared<std::string const>(protocol::encode(*d))});
+                    delta_sent = true;
+                }
+        }
+        c.since_keyframe = delta_sent ? c.since_keyframe + 1 : 0;
+        c.last = now;
+    }
+}
+
+} // namespace kugel::server

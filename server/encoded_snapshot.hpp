@@ -1,0 +1,85 @@
+#pragma once
+
+#include "protocol/compact.hpp"
+#include "protocol/messages.hpp"
+
+#include <cstdint>
+#include <memory>
+#include <mutex>
+#include <string>
+#include <vector>
+
+namespace kugel::server {
+
+/// One snapshot in every form a session may be sent, each encoded at most once and its bytes
+/// shared by every session that sends it (DESIGN.md, one tick):
+///  - full: every body in full (protocol 1's form; encoded when the room has a client of
+///    that form, or when a session first asks);
+///  - keyframe: the compact form of every body, encoded only when a session needs one;
+///  - deltas: the compact bodies that changed since the room's previous snapshot of a chain
+///    (chains_, by how many of the room's snapshots a client's rate skips), encoded by the
+///    room's encoder in tick order.
+/// A session picks the form at the moment it writes, never earlier: a delta only when the
+/// client holds the delta's base (the last compact snapshot it was sent), else the keyframe.
+/// So a client that skips snapshots never gets a delta it cannot apply. Thread-safe.
+class encoded_snapshot
+{
+public:
+    struct delta_form
+    {
+        std::uint64_t base = 0; ///< the tick the delta applies to
+        std::shared_ptr<std::string const> bytes;
+    };
+
+    encoded_snapshot(std::uint64_t index, protocol::snapshot full,
+                     std::shared_ptr<protocol::compact_state const> compact);
+
+    /// The room's count of snapshots encoded before this one: a client that takes every
+    /// n-th snapshot takes those whose index is a multiple of n.
+    std::uint64_t index() const { return index_; }
+    std::uint64_t tick() const { return compact_->tick; }
+
+    std::shared_ptr<std::string const> const& full() const;
+    std::shared_ptr<std::string const> const& keyframe() const;
+    /// Set by the encoder before the snapshot is offered to any session.
+    void add_delta(delta_form d) { deltas_.push_back(std::move(d)); }
+    /// A delta against `base`, if one was encoded; null otherwise.
+    std::shared_ptr<std::string const> delta_from(std::uint64_t base) const;
+
+private:
+    std::uint64_t index_;
+    protocol::snapshot full_snapshot_;
+    std::shared_ptr<protocol::compact_state const> compact_;
+    std::vector<delta_form> deltas_;
+    mutable std::once_flag full_once_;
+    mutable std::shared_ptr<std::string const> full_;
+    mutable std::once_flag keyframe_once_;
+    mutable std::shared_ptr<std::string const> keyframe_;
+};
+
+/// What the room's encoder keeps between snapshots: the last compact state of each chain. A
+/// chain of n takes every n-th snapshot; its clients get deltas between consecutive ones.
+/// Used by one encoding at a time (room::send_snapshot runs them one after the other).
+class snapshot_chains
+{
+public:
+    /// Adds to `s` a delta for every chain in `every` that takes it, against that chain's
+    /// last state, and makes `now` their last. A chain's delta is left out (its clients get
+    /// the keyframe) when `keyframe_every` of its snapshots have passed since its last
+    /// keyframe, when the quanta changed, or when most bodies were replaced. Chains not in
+    /// `every` are forgotten.
+    void encode(encoded_snapshot& s, std::shared_ptr<protocol::compact_state const> const& now,
+                std::vector<std::uint64_t> const& every, double keyframe_seconds,
+                double room_snapshot_rate);
+
+private:
+    struct chain
+    {
+        std::uint64_t every = 1;
+        std::shared_ptr<protocol::compact_state const> last;
+        std::uint64_t since_keyframe = 0; ///< deltas since the last forced keyframe
+    };
+    std::vector<chain> chains_;
+};
+
+} // namespace kugel::server
