@@ -110,6 +110,31 @@ inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3& v_
     return true;
 }
 
+/// A resting contact between two spheres held together by their forces (opposite charges,
+/// gravity between them), as respond_to_surface makes one on a wall: after a contact that
+/// left them no normal speed, their accelerations lose the part that presses them together,
+/// split by inverse mass so that momentum is kept, and they move on touching for the rest of
+/// the step. Otherwise each approach a rounding error later would be another contact of no
+/// speed, without end (the event caps, and the energy those steps lose). Found a little
+/// overlapped (a pair touching with no normal speed is looked at again a moment later), they
+/// are set touching, each moved by its share of inverse mass (the centre of mass stays), as
+/// a body resting on a wall is set on its surface: an overlap would grow step by step.
+inline void hold_resting_pair(body_path& a, double inverse_mass_a, body_path& b, double inverse_mass_b,
+                              vec3 const& n, double reach)
+{
+    double const pressing = (a.a - b.a).dot(n);
+    double const total = inverse_mass_a + inverse_mass_b;
+    if (!(pressing < 0.0 && total > 0.0))
+        return;
+    a.a -= (inverse_mass_a / total * pressing) * n;
+    b.a += (inverse_mass_b / total * pressing) * n;
+    double const overlap = reach - (a.x - b.x).dot(n);
+    if (overlap > 0.0) {
+        a.x += (inverse_mass_a / total * overlap) * n;
+        b.x -= (inverse_mass_b / total * overlap) * n;
+    }
+}
+
 /// The same with the rest threshold of the pair's relative acceleration a_a − a_b.
 inline bool respond_to_sphere_contact(vec3& v_a, double inverse_mass_a, vec3 const& a_a, vec3& v_b,
                                       double inverse_mass_b, vec3 const& a_b, vec3 const& n,

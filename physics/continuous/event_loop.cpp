@@ -452,12 +452,17 @@ private:
             double const reach = r + b_.radius[j];
             if (distance <= reach * (1.0 + touching_tolerance) || distance <= reach + position_slack(p.x, q.x)) {
                 vec3 const n = detail::contact_normal(d, distance);
+                // the response's own test: a contact slower than the rest threshold rests
+                double const closing = (p.v - q.v).dot(n);
+                bool const rests = -closing * settings_.restitution < detail::rest_threshold(settings_, p.a - q.a, n, h_);
                 if (detail::respond_to_sphere_contact(p.v, b_.inverse_mass[i], p.a, q.v, b_.inverse_mass[j],
                                                       q.a, n, settings_, h_)) {
                     // a body resting on a wall that is hit moves freely again; if it is still
                     // pressed on the wall, its wall contact is found again at once
                     p.a = ws_.free_acceleration[i];
                     q.a = ws_.free_acceleration[j];
+                    if (rests) // held together by their forces: they rest against each other
+                        detail::hold_resting_pair(p, b_.inverse_mass[i], q, b_.inverse_mass[j], n, reach);
                     ++stats_.sphere_contacts;
                 }
             }
