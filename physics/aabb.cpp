@@ -7,6 +7,8 @@ void boxes_of_spheres(std::span<vec3 const> x, std::span<double const> radius, s
 {
     boxes.clear();
     members.clear();
+    boxes.reserve(x.size()); // grown once, not doubled on the way
+    members.reserve(x.size());
     for (std::size_t i = 0; i < x.size(); ++i) {
         if (radius[i] > 0.0) {
             boxes.push_back(aabb_of_sphere(x[i], radius[i] + margin));

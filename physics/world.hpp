@@ -31,6 +31,9 @@ public:
     /// Throws std::invalid_argument on a body the storage refuses (see body_storage::add).
     /// Wakes the sleeping bodies it touches.
     body_id add_body(body_desc const& desc);
+    /// Room for n bodies in all, so that adding that many moves no storage (a large scene's
+    /// bodies, added one at a time, would otherwise double every column on the way).
+    void reserve(std::size_t n) { bodies_.reserve(n); }
     /// False when the id names no live body. Wakes its island and the sleeping bodies it
     /// touched (what it carried).
     bool remove_body(body_id id);

@@ -684,6 +684,10 @@ physics::world build_world(scene const& s)
             w.add_force(std::make_unique<physics::coulomb>(c->k, c->softening));
     }
 
+    std::size_t total = s.bodies.size();
+    for (auto const& g : s.generators)
+        total += static_cast<std::size_t>(g.count);
+    w.reserve(total);
     for (auto const& body : s.bodies)
         w.add_body(body);
     for (auto const& g : s.generators) {
@@ -738,7 +742,9 @@ physics::world build_world(scene const& s)
 
 physics::sphere scene_bounds(scene const& s, physics::world const& w)
 {
-    std::vector<physics::vec3> points(w.bodies().positions().begin(), w.bodies().positions().end());
+    std::vector<physics::vec3> points;
+    points.reserve(w.bodies().size() + 8 * s.obstacles.size() + 8); // no doubling on the way
+    points.assign(w.bodies().positions().begin(), w.bodies().positions().end());
     double largest_radius = 0.0;
     for (double r : w.bodies().radii())
         largest_radius = std::max(largest_radius, r);

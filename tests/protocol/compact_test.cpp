@@ -46,7 +46,7 @@ struct toy_world
             if (b.resting)
                 continue;
             b.v[2] -= 9.81 * dt;
-            for (int k = 0; k < 3; ++k)
+            for (std::size_t k = 0; k < 3; ++k)
                 b.x[k] += b.v[k] * dt;
             if (b.x[2] < 0.0) { // a bounce: the velocity jumps
                 b.x[2] = -b.x[2];
@@ -144,7 +144,7 @@ TEST(CompactSnapshots, ADeltaChainWithChurnKeepsTheClientOnTheServersState)
         if (n % 7 == 0)
             w.spawn(n % 2 == 0);
         if (n % 11 == 0)
-            w.bodies.erase(w.bodies.begin() + static_cast<std::ptrdiff_t>(n % w.bodies.size()));
+            w.bodies.erase(w.bodies.begin() + static_cast<std::ptrdiff_t>(static_cast<std::size_t>(n) % w.bodies.size()));
         snapshot const full = w.full();
         compact_state const now = quantize(full, owners, q);
         auto const d = delta(base, now);
