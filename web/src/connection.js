@@ -28,31 +28,29 @@ export function backoff_delay(attempt, { initial = 250, max = 5000, random = Mat
 }
 
 /**
- * Bytes received, averaged over the last `window` seconds: add() each frame's bytes with its
- * arrival time, per_second(now) the sum over (now − window, now] divided by the window.
+ * Bytes received per second, over about the last `window` seconds: add() each frame's
+ * bytes as the page reads it, per_second(now) the bytes read since the newest reading at
+ * least `window` old, divided by the time since. Measured between readings on the page's
+ * own clock rather than by each frame's arrival, because a page busy drawing reads a whole
+ * second of frames at once: by arrival they would all seem to have come in the last moment.
  */
 export class ByteRate {
   constructor(window = 1) {
     this.window = window; // s
-    this.arrivals = []; // [local s, bytes], oldest first
-    this.sum = 0;
     this.total = 0; // every byte added
+    this.readings = []; // [local s, total], oldest first
   }
 
-  add(bytes, at) {
-    this.arrivals.push([at, bytes]);
-    this.sum += bytes;
+  add(bytes) {
     this.total += bytes;
   }
 
+  /** Bytes per second since about `window` seconds ago; null until a reading that old. */
   per_second(now) {
-    while (this.arrivals.length && this.arrivals[0][0] <= now - this.window) this.sum -= this.arrivals.shift()[1];
-    return this.sum / this.window;
-  }
-
-  clear() {
-    this.arrivals.length = 0;
-    this.sum = 0;
+    this.readings.push([now, this.total]);
+    while (this.readings.length > 1 && now - this.readings[1][0] >= this.window) this.readings.shift();
+    const [then, total] = this.readings[0];
+    return now - then >= this.window ? (this.total - total) / (now - then) : null;
   }
 }
 
@@ -123,7 +121,6 @@ export class Connection {
     this.in_flight = 0;
     this.min_in_flight = 0;
     this.stream = new CompactStream();
-    this.bytes.clear();
     const socket = new WebSocket(this.url);
     const generation = ++this.generation;
     this.socket = socket;
@@ -181,7 +178,7 @@ export class Connection {
 
   receive(parsed) {
     const { message, snapshot, bytes, refused } = parsed;
-    if (bytes !== undefined) this.bytes.add(bytes, parsed.received_at ?? performance.now() / 1000);
+    if (bytes !== undefined) this.bytes.add(bytes);
     if (!message) {
       console.warn('kugel: the server sent a frame that is not JSON');
       return;

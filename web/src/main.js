@@ -43,6 +43,8 @@ const state = {
   parser: null, // where snapshots are parsed: 'worker' or 'main thread'
   form: null, // the form of the last snapshot read: 'compact' or 'full'
   snapshots: null, // what the server grants this socket: the welcome's `snapshots` (form, rate, quanta)
+  room_snapshot_rate: null, // Hz: the room's, from the welcome
+  tick_rate: null, // Hz: the room's ticks per second, from the welcome
   asked_rate: null, // Hz: the snapshot rate the page asked for
   bytes_per_second: null, // this page's WebSocket bytes received, over the last second
   bytes_received: 0, // this page's WebSocket bytes received since it joined the room
@@ -140,6 +142,8 @@ function playback_clock(message) {
 function on_welcome(message) {
   state.welcomes++;
   state.snapshots = message.snapshots ?? null;
+  state.room_snapshot_rate = message.snapshot_rate;
+  state.tick_rate = message.tick_rate;
   state.asked_rate = connection?.asked_rate ?? null;
   if (connection?.socket_welcomes > 1 && same_world(welcome, message) && clock) {
     // Only the snapshots (or admin) changed: keep what is drawn, follow the new rate.

@@ -234,14 +234,18 @@ test('a page whose frames wait to be parsed asks for half the rate, and not agai
   }
 });
 
-test('bytes per second: the last second\'s bytes', () => {
+test('bytes per second: what was read since the reading about a second ago', () => {
   const rate = new ByteRate();
-  rate.add(1000, 10.0);
-  rate.add(500, 10.5);
-  assert.equal(rate.per_second(10.9), 1500);
-  assert.equal(rate.per_second(11.2), 500, 'the frame of 10.0 s is more than a second old');
-  assert.equal(rate.per_second(12), 0);
-  assert.equal(rate.total, 1500);
+  assert.equal(rate.per_second(10.0), null, 'no reading a second old yet');
+  rate.add(1000);
+  assert.equal(rate.per_second(10.5), null);
+  rate.add(500);
+  assert.equal(rate.per_second(11.0), 1500, 'since 10.0 s');
+  assert.equal(rate.per_second(11.5), 500, 'since 10.5 s');
+  // A page that drew for 3 s and then read 3 s of frames at once: averaged over the 3 s.
+  rate.add(3000);
+  assert.equal(rate.per_second(14.5), 1000);
+  assert.equal(rate.total, 4500);
 });
 
 test('the HUD shows bytes per second and the form with its rate', () => {
