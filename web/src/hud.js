@@ -1,5 +1,6 @@
 // The heads-up display: connection state, room (and a picker when the server hosts several),
-// tick, bodies, snapshots per second, round trip, server tick time, frame rate; the colour
+// tick, bodies, snapshots per second, bytes received per second and the snapshot form,
+// round trip, server tick time, frame rate; the colour
 // legend; and the server's errors as readable messages.
 import { charge_stops, speed_stops } from './colour_scale.js';
 
@@ -42,6 +43,8 @@ export class Hud {
     this.tick = $('hud-tick');
     this.bodies = $('hud-bodies');
     this.snapshot_rate = $('hud-snapshot-rate');
+    this.bytes_rate = $('hud-bytes-rate');
+    this.form = $('hud-form');
     this.rtt = $('hud-rtt');
     this.tick_time = $('hud-tick-time');
     this.fps = $('hud-fps');
@@ -81,7 +84,10 @@ export class Hud {
     this.scene.textContent = name;
   }
 
-  /** stats: {tick, bodies, snapshots_per_second, rtt_ms, tick_ms, frames_per_second}; null shows a dash. */
+  /**
+   * stats: {tick, bodies, snapshots_per_second, bytes_per_second, form, snapshots, rtt_ms,
+   * tick_ms, frames_per_second}; null shows a dash.
+   */
   update(stats) {
     const show = (element, value, format) => {
       element.textContent = value === null || value === undefined ? '–' : format(value);
@@ -89,6 +95,8 @@ export class Hud {
     show(this.tick, stats.tick, String);
     show(this.bodies, stats.bodies, String);
     show(this.snapshot_rate, stats.snapshots_per_second, (v) => v.toFixed(1));
+    if (this.bytes_rate) show(this.bytes_rate, stats.bytes_per_second, format_bytes_rate);
+    if (this.form) show(this.form, stats.form, (form) => describe_form(form, stats.snapshots));
     show(this.rtt, stats.rtt_ms, (v) => `${v.toFixed(1)} ms`);
     this.tick_time.textContent = typeof stats.tick_ms === 'number' ? `${stats.tick_ms.toFixed(2)} ms` : 'n/a';
     show(this.fps, stats.frames_per_second, (v) => v.toFixed(0));
@@ -134,6 +142,19 @@ export class Hud {
     while (this.messages.children.length > max_messages) this.messages.firstElementChild.remove();
     setTimeout(() => element.remove(), message_seconds * 1000);
   }
+}
+
+/** Bytes per second in B/s, kB/s or MB/s (powers of 1000), three significant digits. */
+export function format_bytes_rate(bytes) {
+  if (bytes < 1e3) return `${bytes.toFixed(0)} B/s`;
+  if (bytes < 1e6) return `${(bytes / 1e3).toPrecision(3)} kB/s`;
+  return `${(bytes / 1e6).toPrecision(3)} MB/s`;
+}
+
+/** The form in use, with the rate the server grants when it said one ('compact at 30 Hz'). */
+export function describe_form(form, granted) {
+  if (!granted || granted.form !== form) return form;
+  return `${form} at ${Number(granted.rate.toPrecision(3))} Hz`;
 }
 
 function capitalised(word) {

@@ -41,6 +41,17 @@ const state = {
   tick_ms: null,
   frames_per_second: null,
   parser: null, // where snapshots are parsed: 'worker' or 'main thread'
+  form: null, // the form of the last snapshot read: 'compact' or 'full'
+  snapshots: null, // what the server grants this socket: the welcome's `snapshots` (form, rate, quanta)
+  room_snapshot_rate: null, // Hz: the room's, from the welcome
+  tick_rate: null, // Hz: the room's ticks per second, from the welcome
+  asked_rate: null, // Hz: the snapshot rate the page asked for
+  bytes_per_second: null, // this page's WebSocket bytes received, over the last second
+  bytes_received: 0, // this page's WebSocket bytes received since it joined the room
+  snapshots_read: 0, // snapshots turned into columns since the page opened
+  keyframes: 0, // compact keyframes among them
+  deltas: 0, // compact deltas among them
+  refused: [], // the last few snapshots that could not be read: {tick, form, why}
   frames: 0, // frames drawn with bodies in them
   welcomes: 0,
   paused: false, // an admin paused the room: snapshots keep coming, time stands still
@@ -115,24 +126,50 @@ function on_message(message, snapshot) {
   }
 }
 
+/** The welcome says what the last one said of the world (it answers a hello, or made an admin). */
+function same_world(a, b) {
+  const world = (w) => JSON.stringify([w.room, w.scene, w.dt, w.tick_rate, w.snapshot_rate]);
+  return a !== null && world(a) === world(b);
+}
+
+/** The playback delay: two snapshot intervals of the rate the server sends this page. */
+function playback_clock(message) {
+  const rate = message.dt * message.tick_rate; // simulated s per s
+  const snapshot_rate = message.snapshots?.rate ?? message.snapshot_rate;
+  return new PlaybackClock({ delay: (2 * rate) / snapshot_rate, rate });
+}
+
 function on_welcome(message) {
+  state.welcomes++;
+  state.snapshots = message.snapshots ?? null;
+  state.room_snapshot_rate = message.snapshot_rate;
+  state.tick_rate = message.tick_rate;
+  state.asked_rate = connection?.asked_rate ?? null;
+  if (connection?.socket_welcomes > 1 && same_world(welcome, message) && clock) {
+    // Only the snapshots (or admin) changed: keep what is drawn, follow the new rate.
+    welcome = message;
+    clock.delay = playback_clock(message).delay;
+    return;
+  }
   // The camera stays where the person left it when the same room comes back after a reconnect.
   const same_scene = welcome?.room === message.room && welcome?.scene.name === message.scene.name;
   welcome = message;
-  state.welcomes++;
   state.room = message.room;
   state.scene = message.scene.name;
   state.bounds = message.scene.bounds;
   state.tick_ms = null; // until this server's pong says, in case it never does
   buffer.clear();
-  const rate = message.dt * message.tick_rate; // simulated s per s
-  clock = new PlaybackClock({ delay: (2 * rate) / message.snapshot_rate, rate });
+  clock = playback_clock(message);
   view.set_scene(message.scene, { frame_camera: !same_scene });
   hud.set_scene(message.scene.name);
 }
 
 function on_snapshot(message, snapshot) {
   const now = snapshot.received_at;
+  state.snapshots_read++;
+  state.form = snapshot.form === 'full' ? 'full' : 'compact';
+  if (snapshot.form === 'key') state.keyframes++;
+  if (snapshot.form === 'delta') state.deltas++;
   state.paused = snapshot.paused;
   if (!buffer.push(snapshot)) return;
   clock?.on_snapshot(snapshot.time, now);
@@ -159,6 +196,11 @@ function connect(room) {
       hud.set_connection(s, detail);
     },
     on_attempt_failed: () => check_room(opened, room),
+    on_refused: (why, message) => {
+      remember(state.refused, { tick: message.tick ?? null, form: message.form ?? 'full', why });
+      console.warn(`kugel: snapshot ${message.tick} refused: ${why}`);
+      hud.show_notice(`A snapshot from the server could not be read (${why}); ${message.form ? 'reconnecting for a keyframe' : 'it was skipped'}.`);
+    },
   });
   connection = opened;
   state.parser = connection.worker ? 'worker' : 'main thread';
@@ -228,6 +270,9 @@ function update_hud() {
   state.snapshots_per_second = state.connection === 'connected' ? snapshot_arrivals.length : 0;
   state.frames_per_second = frame_times.length;
   state.rtt_ms = connection?.rtt_ms ?? null;
+  state.bytes_per_second = connection ? connection.bytes.per_second(now) : null;
+  state.bytes_received = connection?.bytes.total ?? 0;
+  state.asked_rate = connection?.asked_rate ?? null;
   hud.update(state);
   const mode = colour_mode.value;
   hud.set_legend(mode, mode === 'charge' ? charge_scale : speed_scale.max);
@@ -252,6 +297,8 @@ window.kugel = {
       radius: s.radius[i],
     };
   },
+  /** How many spheres the last frame drew. */
+  drawn: () => view.spheres?.count ?? 0,
   /** Where a world point appears on the page, in CSS pixels. */
   screen_of: (x, y, z) => view.screen_of(x, y, z),
   /** The id of the sphere drawn under a point of the page (CSS pixels), or null. */

@@ -2,9 +2,9 @@
 // the HUD's words.
 import { mock, test } from 'node:test';
 import assert from 'node:assert/strict';
-import { backoff_delay, Connection, room_url } from '../src/connection.js';
+import { backoff_delay, ByteRate, Connection, room_url } from '../src/connection.js';
 import { choose_room } from '../src/rooms.js';
-import { describe_error, Hud } from '../src/hud.js';
+import { describe_error, format_bytes_rate, Hud } from '../src/hud.js';
 
 test('the backoff doubles from 250 ms up to 5 s, within +-20 %', () => {
   const middle = { random: () => 0.5 };
@@ -85,4 +85,180 @@ test('the HUD shows the server\'s tick time in ms when a pong gave one, n/a othe
   assert.equal(elements.get('hud-tick-time').textContent, '0.42 ms');
   hud.update({ ...stats, tick_ms: null });
   assert.equal(elements.get('hud-tick-time').textContent, 'n/a');
+});
+
+/** A socket that is open at once and keeps what the page sends. */
+class OpenSocket extends FakeSocket {
+  constructor(url) {
+    super(url);
+    this.readyState = 1;
+    this.sent = [];
+    this.closed_with = null;
+  }
+  send(text) {
+    this.sent.push(JSON.parse(text));
+  }
+  close(code) {
+    this.closed_with = code;
+  }
+}
+
+function open_connection(options = {}) {
+  globalThis.WebSocket = OpenSocket;
+  globalThis.performance ??= { now: () => Date.now() };
+  mock.timers.enable({ apis: ['setTimeout', 'setInterval'] });
+  const refused = [];
+  const connection = new Connection({
+    url: 'ws://127.0.0.1:8080/ws/arena',
+    on_message: () => {},
+    on_state: () => {},
+    on_refused: (why) => refused.push(why),
+    backoff: { initial: 100, max: 100, random: () => 0.5 },
+    ...options,
+  });
+  connection.open();
+  return { connection, refused, socket: () => FakeSocket.made.at(-1) };
+}
+
+function close_connection(connection) {
+  connection.close();
+  mock.timers.reset();
+  delete globalThis.WebSocket;
+}
+
+const welcome = { type: 'welcome', snapshot_rate: 30 };
+
+test('after the first welcome the page asks for compact snapshots at the room\'s rate, once', () => {
+  const { connection, socket } = open_connection();
+  try {
+    connection.receive({ message: welcome });
+    const hellos = () => socket().sent.filter((m) => m.type === 'hello');
+    assert.deepEqual(hellos(), [{ type: 'hello', protocol: 1, name: 'kugel page', snapshots: { form: 'compact', rate: 30 } }]);
+    // The answer: a second welcome saying what comes. No second hello.
+    connection.receive({ message: { ...welcome, snapshots: { form: 'compact', rate: 30, position_quantum: 0.001, velocity_quantum: 0.01, keyframe_interval: 5 } } });
+    assert.equal(hellos().length, 1);
+    assert.equal(connection.granted.form, 'compact');
+    assert.equal(connection.socket_welcomes, 2);
+  } finally {
+    close_connection(connection);
+  }
+});
+
+test('a server that grants the full form, or ignores the hello, goes on being read in the full form', () => {
+  const { connection, socket } = open_connection();
+  try {
+    connection.receive({ message: welcome });
+    connection.receive({ message: { ...welcome, snapshots: { form: 'full', rate: 30 } } });
+    const received = [];
+    connection.on_message = (message, snapshot) => received.push(snapshot.form);
+    connection.receive({ message: { type: 'snapshot', tick: 1 }, snapshot: { form: 'full', received_at: 0 }, bytes: 100, refused: null });
+    assert.deepEqual(received, ['full']);
+    assert.equal(socket().closed_with, null);
+  } finally {
+    close_connection(connection);
+  }
+});
+
+test('a compact snapshot that cannot be applied replaces the socket; after 3 the page asks for the full form', () => {
+  const { connection, refused, socket } = open_connection();
+  try {
+    for (let attempt = 1; attempt <= 3; attempt++) {
+      connection.receive({ message: welcome });
+      assert.equal(socket().sent.find((m) => m.type === 'hello').snapshots.form, attempt <= 3 ? 'compact' : 'full');
+      const old = socket();
+      const generation = connection.generation;
+      connection.receive({ message: { type: 'snapshot', form: 'delta', tick: 9 }, snapshot: null, bytes: 50, refused: 'a delta against tick 8, and no keyframe came before it' });
+      assert.equal(old.closed_with, 1000, `attempt ${attempt}: the socket is closed`);
+      assert.ok(connection.generation > generation, 'frames of the old socket still in the worker are dropped');
+      assert.equal(connection.state, 'reconnecting');
+      mock.timers.tick(100);
+      assert.notEqual(socket(), old, 'a new socket');
+    }
+    assert.equal(refused.length, 3);
+    connection.receive({ message: welcome });
+    assert.equal(socket().sent.find((m) => m.type === 'hello').snapshots.form, 'full');
+  } finally {
+    close_connection(connection);
+  }
+});
+
+test('a refused full-form snapshot is dropped; the socket stays', () => {
+  const { connection, refused, socket } = open_connection();
+  try {
+    connection.receive({ message: welcome });
+    connection.receive({ message: { type: 'snapshot', tick: 4 }, snapshot: null, bytes: 50, refused: 'a snapshot without bodies.id' });
+    assert.equal(refused.length, 1);
+    assert.equal(socket().closed_with, null);
+    assert.equal(connection.state, 'connected');
+  } finally {
+    close_connection(connection);
+  }
+});
+
+test('a page whose frames wait to be parsed asks for half the rate, and not again at once', () => {
+  const posted = [];
+  globalThis.Worker = class {
+    postMessage(data) {
+      posted.push(data);
+    }
+    terminate() {}
+  };
+  let now = 100;
+  const real_performance = globalThis.performance;
+  globalThis.performance = { now: () => now * 1000 };
+  const { connection, socket } = open_connection({ worker_url: 'parse_worker.js' });
+  try {
+    connection.receive({ message: welcome });
+    connection.receive({ message: { ...welcome, snapshots: { form: 'compact', rate: 30 } } });
+    const rates = () => socket().sent.filter((m) => m.type === 'hello').map((m) => m.snapshots.rate);
+    // 16 frames arrive and none is back from the worker: over half a second of 30 Hz.
+    for (let i = 0; i < 16; i++) socket().onmessage({ data: '{}' });
+    assert.equal(connection.in_flight, 16);
+    mock.timers.tick(1000);
+    assert.deepEqual(rates(), [30], 'not yet a whole second behind');
+    mock.timers.tick(1000);
+    assert.deepEqual(rates(), [30, 15]);
+    now += 1;
+    mock.timers.tick(1000);
+    assert.deepEqual(rates(), [30, 15], 'still behind, but it just asked');
+    // Caught up: no more lowering.
+    for (let i = 0; i < 16; i++) connection.worker.onmessage({ data: { generation: connection.generation, parsed: { message: { type: 'pong' }, bytes: 2 } } });
+    assert.equal(connection.in_flight, 0);
+    now += 5;
+    mock.timers.tick(2000);
+    assert.deepEqual(rates(), [30, 15]);
+  } finally {
+    close_connection(connection);
+    delete globalThis.Worker;
+    globalThis.performance = real_performance;
+  }
+});
+
+test('bytes per second: what was read since the reading about a second ago', () => {
+  const rate = new ByteRate();
+  assert.equal(rate.per_second(10.0), null, 'no reading a second old yet');
+  rate.add(1000);
+  assert.equal(rate.per_second(10.5), null);
+  rate.add(500);
+  assert.equal(rate.per_second(11.0), 1500, 'since 10.0 s');
+  assert.equal(rate.per_second(11.5), 500, 'since 10.5 s');
+  // A page that drew for 3 s and then read 3 s of frames at once: averaged over the 3 s.
+  rate.add(3000);
+  assert.equal(rate.per_second(14.5), 1000);
+  assert.equal(rate.total, 4500);
+});
+
+test('the HUD shows bytes per second and the form with its rate', () => {
+  const elements = new Map();
+  const document = { getElementById: (id) => elements.get(id) ?? elements.set(id, { textContent: '', dataset: {}, style: {} }).get(id) };
+  const hud = new Hud(document);
+  hud.update({ bytes_per_second: 123456, form: 'compact', snapshots: { form: 'compact', rate: 30 } });
+  assert.equal(elements.get('hud-bytes-rate').textContent, '123 kB/s');
+  assert.equal(elements.get('hud-form').textContent, 'compact at 30 Hz');
+  hud.update({ bytes_per_second: 2.5e6, form: 'full', snapshots: { form: 'compact', rate: 30 } });
+  assert.equal(elements.get('hud-bytes-rate').textContent, '2.50 MB/s');
+  assert.equal(elements.get('hud-form').textContent, 'full');
+  hud.update({ bytes_per_second: null, form: null });
+  assert.equal(elements.get('hud-bytes-rate').textContent, '–');
+  assert.equal(format_bytes_rate(999), '999 B/s');
 });
