@@ -171,27 +171,8 @@ std::optional<double> sphere_time_of_impact(vec3 const& x1, vec3 const& v1, doub
     double const reach = r1 + r2;
     vec3 const d = x1 - x2;
     vec3 const relative_velocity = v1 - v2;
-    // Most pairs a broadphase offers move apart, and d·v says so long before the care below
-    // is needed: computed plainly, its error is below 3u·Σ|d_k·v_k| (u = 2^-53), so a sum
-    // above 2^-50 times that is positive whatever the rounding, and so is the accurate d·v
-    // below. That one uses v scaled by a power of two, which keeps every sign and, for
-    // components between 2^-500 and 2^500 (or 0), every bit; the sum stays far from under-
-    // and overflow. Outside those ranges the careful path alone decides.
-    auto const moderate = [](double x) { return x == 0.0 || (std::abs(x) > 0x1p-500 && std::abs(x) < 0x1p500); };
-    double const magnitude = d.cwiseAbs().dot(relative_velocity.cwiseAbs());
-    if (magnitude > 0x1p-900 && magnitude < 0x1p900 && moderate(relative_velocity.x()) &&
-        moderate(relative_velocity.y()) && moderate(relative_velocity.z())) {
-        double const plain_b = d.dot(relative_velocity);
-        if (plain_b > 0x1p-50 * magnitude)
-            return std::nullopt;
-        // Approaching pairs mostly pass each other by: b² − a c (below) computed plainly errs
-        // by less than about 20u·a·(d·d + R²) (‖d·v‖ <= √a·‖d‖), so a value below 2^-40 times
-        // that is negative whatever the rounding, and so is the careful one. Overflow or
-        // underflow only makes the test fail, and the careful path decide.
-        double const a = relative_velocity.squaredNorm(), dd = d.squaredNorm();
-        if (plain_b * plain_b - a * (dd - reach * reach) < -0x1p-40 * (a * (dd + reach * reach)))
-            return std::nullopt;
-    }
+    if (surely_misses(d, relative_velocity, reach))
+        return std::nullopt;
     // The time scales as 1/|v|, so it is found for v scaled by a power of two to a largest
     // component in [1, 2), then scaled back. Power-of-two scaling is exact: for ordinary
     // speeds the result is bit for bit the unscaled one. Unscaled, a relative speed below

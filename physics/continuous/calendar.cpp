@@ -310,6 +310,8 @@ void calendar::predict_pair(std::uint32_t i, std::uint32_t j)
         std::swap(p, q);
     }
     vec3 const xq = q->x + (p->since - q->since) * q->v;
+    if (surely_misses(p->x - xq, p->v - q->v, shapes_[i].radius + shapes_[j].radius))
+        return; // most neighbours: no call
     if (auto t = sphere_time_of_impact(p->x, p->v, shapes_[i].radius, xq, q->v, shapes_[j].radius, forever))
         push(p->since + *t, event_kind::pair, i, j);
 }
