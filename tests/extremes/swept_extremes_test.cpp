@@ -144,12 +144,16 @@ TEST(DiscreteSweep, FastSphereBouncesAtAWallAndAtAThinBox)
 }
 
 /// 200 spheres of radius 0.05 m in a closed 1 m box at 1e4 m/s in random directions, dt =
-/// 1e-4 s: every sphere crosses the box once a step, 20 radii.
+/// 1e-4 s: every sphere crosses the box once a step, 20 radii. Continuous mode takes it step by
+/// step (not by its calendar of events): the sweep runs that loop, so the two find the same
+/// events, where the calendar would find the same physics on paths that part in the last
+/// bits, and this gas, 6 contacts a sphere a step, magnifies that into other contacts.
 world fast_gas(collision_mode mode, bool sweep)
 {
     world_settings s;
     s.collisions.mode = mode;
     s.collisions.sweep = sweep;
+    s.collisions.event_calendar = false;
     world w(s);
     for (int axis = 0; axis < 3; ++axis) {
         for (double const sign : {1.0, -1.0}) {
