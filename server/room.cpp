@@ -791,10 +791,11 @@ void room::send_snapshot()
                             snapshot = copy_snapshot(), owners = std::move(owners),
                             q = quanta_, any_full, chains = std::move(chains),
                             audience = std::move(audience)]() mutable {
-        auto compact = std::make_shared<protocol::compact_state const>(
-            protocol::quantize(snapshot, owners, q));
-        auto forms = std::make_shared<encoded_snapshot>(index, std::move(snapshot), compact);
-        self->chains_.encode(*forms, compact, chains, self->settings_.keyframe_interval,
+        // Quantized only for a compact client: a room of full-form clients never pays for it.
+        auto forms = std::make_shared<encoded_snapshot>(
+            index, std::move(snapshot), std::move(owners), q,
+            std::shared_ptr<snapshot_form_counters>(self, &self->traffic_.encoded));
+        self->chains_.encode(*forms, chains, self->settings_.keyframe_interval,
                              self->settings_.snapshot_rate);
         std::size_t bytes = 0;
         if (any_full)
