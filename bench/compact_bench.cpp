@@ -31,12 +31,18 @@ snapshot copy(physics::world const& w, std::uint64_t tick)
     return s;
 }
 
-/// The room's default quanta for a scene (server/room.cpp, quanta_for).
+/// The room's quanta for a scene without server options (server/room.cpp, quanta_for): the
+/// scene's, else chosen from its size and the 30 Hz snapshot rate.
 quanta default_quanta(scene::scene const& s, physics::world const& w)
 {
     double const size = std::max(scene::scene_bounds(s, w).radius, 1e-3);
-    double const position = std::pow(10.0, std::ceil(std::log10(size))) * 1e-4;
-    return {position, std::pow(10.0, std::round(std::log10(position * 30.0)))};
+    double const position = s.snapshots.position_quantum > 0.0
+                                ? s.snapshots.position_quantum
+                                : std::pow(10.0, std::ceil(std::log10(size))) * 1e-4;
+    double const velocity = s.snapshots.velocity_quantum > 0.0
+                                ? s.snapshots.velocity_quantum
+                                : std::pow(10.0, std::round(std::log10(position * 30.0)));
+    return {position, velocity};
 }
 
 /// Both compact forms of one snapshot of the 10,000-body gas, from the copy: quantizing,
@@ -56,7 +62,7 @@ void encode_compact_forms(benchmark::State& state)
     for (auto _ : state) {
         compact_state const after = quantize(now, {}, q);
         std::string d = encode(*delta(before, after));
-        std::string k = encode(keyframe(after));
+        std::string k = encode_keyframe(after);
         delta_bytes = d.size();
         key_bytes = k.size();
         benchmark::DoNotOptimize(d.data());

@@ -1,9 +1,12 @@
 #include "codec.hpp"
 
+#include <algorithm>
 #include <bit>
 #include <charconv>
 #include <cmath>
 #include <cstddef>
+#include <cstring>
+#include <memory>
 #include <limits>
 #include <nlohmann/json.hpp>
 #include <tuple>
@@ -1092,93 +1095,237 @@ std::string encode(error const& message)
     return encode_message(message);
 }
 // A snapshot is most of the traffic and grows with the bodies, so it is written straight
-// into one string with std::to_chars rather than built as a JSON document first: the same
+// into one buffer with std::to_chars rather than built as a JSON document first: the same
 // text in two thirds to four fifths of the time (bench/protocol_bench.cpp, encode_snapshot
-// against encode_snapshot_via_json_document).
+// against encode_snapshot_via_json_document). The buffer is never zero-filled and each
+// number is written in place, one capacity check each (bench/README.md, compact snapshots).
 namespace {
 
 class snapshot_writer
 {
 public:
-    explicit snapshot_writer(std::size_t bodies) { out_.reserve(64 + 160 * bodies); }
+    explicit snapshot_writer(std::size_t expected_bytes) { grow(expected_bytes + 256); }
 
-    void raw(std::string_view text) { out_ += text; }
+    void raw(std::string_view text)
+    {
+        make_room(text.size());
+        std::memcpy(end_, text.data(), text.size());
+        end_ += text.size();
+    }
+
+    void raw(char c)
+    {
+        make_room(1);
+        *end_++ = c;
+    }
 
     template <class Number>
     void number(Number x)
     {
-        if constexpr (std::is_floating_point_v<Number>) {
-            if (!std::isfinite(x)) { // never sent by the server; what nlohmann would write
-                out_ += "null";
-                return;
-            }
-        }
-        std::array<char, 32> buffer{};
-        auto const [end, ec] = std::to_chars(buffer.data(), buffer.data() + buffer.size(), x);
-        out_.append(buffer.data(), end);
-        if constexpr (std::is_floating_point_v<Number>) {
-            if (std::string_view(buffer.data(), end).find_first_of(".e") == std::string_view::npos)
-                out_ += ".0"; // 3.0, not 3: a double stays a double on the wire, as elsewhere
-        }
+        make_room(max_number_chars);
+        write_number(x);
     }
 
     template <class Number>
     void column(std::string_view name, std::vector<Number> const& values)
     {
-        out_ += '"';
-        out_ += name;
-        out_ += "\":[";
-        for (std::size_t i = 0; i < values.size(); ++i) {
-            if (i > 0)
-                out_ += ',';
-            number(values[i]);
+        open_column(name);
+        if constexpr (std::is_integral_v<Number>) {
+            // Room for the whole column at once: one check, then integers written in place.
+            make_room(values.size() * (max_integer_chars + 1) + 1);
+            char* out = end_; // a local: writing chars does not make the compiler reload it
+            for (std::size_t i = 0; i < values.size(); ++i) {
+                *out = ',';
+                out += i > 0 ? 1 : 0;
+                out = write_integer(out, values[i]);
+            }
+            end_ = out;
+        } else {
+            for (std::size_t i = 0; i < values.size(); ++i) {
+                make_room(max_number_chars + 1);
+                if (i > 0)
+                    *end_++ = ',';
+                write_number(values[i]);
+            }
         }
-        out_ += ']';
+        raw(']');
     }
 
     /// Ids as the first, then each less the one before.
     void gap_column(std::string_view name, std::vector<std::uint64_t> const& ids)
     {
-        out_ += '"';
-        out_ += name;
-        out_ += "\":[";
+        open_column(name);
+        make_room(ids.size() * (max_integer_chars + 1) + 1);
+        char* out = end_;
         std::uint64_t last = 0;
         for (std::size_t i = 0; i < ids.size(); ++i) {
-            if (i > 0)
-                out_ += ',';
-            number(ids[i] - last);
+            *out = ',';
+            out += i > 0 ? 1 : 0;
+            out = write_integer(out, ids[i] - last);
             last = ids[i];
         }
-        out_ += ']';
+        end_ = out;
+        raw(']');
     }
 
     /// Doubles, a run of equal ones written by copying the first's text (a scene's bodies
     /// mostly share radius and mass: shortest-form conversion is the costly part).
     void constant_column(std::string_view name, std::vector<double> const& values)
     {
-        out_ += '"';
-        out_ += name;
-        out_ += "\":[";
+        open_column(name);
         std::size_t text_start = 0, text_size = 0;
         for (std::size_t i = 0; i < values.size(); ++i) {
+            make_room(max_number_chars + 1);
             if (i > 0)
-                out_ += ',';
+                *end_++ = ',';
             if (i > 0 && std::bit_cast<std::uint64_t>(values[i]) ==
                              std::bit_cast<std::uint64_t>(values[i - 1])) {
-                out_.append(out_, text_start, text_size);
+                std::memcpy(end_, buffer_.get() + text_start, text_size);
+                end_ += text_size;
                 continue;
             }
-            text_start = out_.size();
-            number(values[i]);
-            text_size = out_.size() - text_start;
+            text_start = static_cast<std::size_t>(end_ - buffer_.get());
+            write_number(values[i]);
+            text_size = static_cast<std::size_t>(end_ - buffer_.get()) - text_start;
         }
-        out_ += ']';
+        raw(']');
     }
 
-    std::string take() { return std::move(out_); }
+    std::string take() const { return std::string(buffer_.get(), end_); }
 
 private:
-    std::string out_;
+    /// The longest number written: a double's shortest form is at most 24 characters, and
+    /// ".0" may follow; a 64-bit integer takes 20.
+    static constexpr std::size_t max_number_chars = 32;
+    static constexpr std::size_t max_integer_chars = 20;
+
+    /// "00", "01", ... "99": two digits at a time.
+    static constexpr auto digit_pairs = [] {
+        std::array<char, 200> pairs{};
+        for (std::size_t i = 0; i < 100; ++i) {
+            pairs[2 * i] = static_cast<char>('0' + i / 10);
+            pairs[2 * i + 1] = static_cast<char>('0' + i % 10);
+        }
+        return pairs;
+    }();
+
+    /// Writes x at `at` in decimal, as std::to_chars does (a '-' before a negative one);
+    /// `at` has room for max_integer_chars. Returns the end. Below 10^8 without a branch
+    /// on the value: the signs and lengths of a snapshot's numbers follow no pattern, and
+    /// a mispredicted branch per number cost more than the digits.
+    template <class Integer>
+    static char* write_integer(char* at, Integer x)
+    {
+        std::uint64_t u = static_cast<std::uint64_t>(x);
+        if constexpr (std::is_signed_v<Integer>) {
+            bool const negative = x < 0;
+            *at = '-';
+            at += negative ? 1 : 0;
+            u = negative ? 0 - u : u;
+        }
+        if (u < 10) { // most numbers of a delta: a branch that is mostly taken, or mostly not
+            *at = static_cast<char>('0' + u);
+            return at + 1;
+        }
+        if (std::endian::native != std::endian::little || u >= 100'000'000)
+            return write_long_integer(at, u);
+        // Eight digits, leading zeros included, as one little-endian word (first digit in
+        // the lowest byte); shifted right past the zeros, it is stored whole.
+        auto const v = static_cast<std::uint32_t>(u);
+        std::uint32_t const high = v / 10000, low = v % 10000;
+        std::uint64_t const word = pair_bits(high / 100) | pair_bits(high % 100) << 16U |
+                                   pair_bits(low / 100) << 32U | pair_bits(low % 100) << 48U;
+        unsigned const digits = 1U + (v >= 10U) + (v >= 100U) + (v >= 1000U) + (v >= 10000U) +
+                                (v >= 100000U) + (v >= 1000000U) + (v >= 10000000U);
+        std::uint64_t const shown = word >> (8U * (8U - digits));
+        std::memcpy(at, &shown, 8);
+        return at + digits;
+    }
+
+    /// The two digits of k < 100 as the bits of two bytes, the first digit lowest.
+    static std::uint64_t pair_bits(std::uint32_t k)
+    {
+        std::uint16_t bits = 0;
+        std::memcpy(&bits, &digit_pairs[2 * k], 2);
+        return bits;
+    }
+
+    /// Any 64-bit u, two digits at a time. Returns the end.
+    static char* write_long_integer(char* at, std::uint64_t u)
+    {
+        std::array<char, max_integer_chars> scratch{};
+        char* const last = scratch.data() + scratch.size();
+        char* first = last;
+        while (u >= 100) {
+            std::uint64_t const pair = u % 100;
+            u /= 100;
+            first -= 2;
+            std::memcpy(first, &digit_pairs[2 * pair], 2);
+        }
+        if (u >= 10) {
+            first -= 2;
+            std::memcpy(first, &digit_pairs[2 * u], 2);
+        } else {
+            *--first = static_cast<char>('0' + u);
+        }
+        auto const length = static_cast<std::size_t>(last - first);
+        std::memcpy(at, first, length);
+        return at + length;
+    }
+
+    void open_column(std::string_view name)
+    {
+        make_room(name.size() + 4);
+        *end_++ = '"';
+        std::memcpy(end_, name.data(), name.size());
+        end_ += name.size();
+        std::memcpy(end_, "\":[", 3);
+        end_ += 3;
+    }
+
+    void make_room(std::size_t n)
+    {
+        if (static_cast<std::size_t>(capacity_end_ - end_) < n)
+            grow(n);
+    }
+
+    void grow(std::size_t n)
+    {
+        std::size_t const used = buffer_ ? static_cast<std::size_t>(end_ - buffer_.get()) : 0;
+        std::size_t const capacity = std::max(2 * static_cast<std::size_t>(capacity_end_ - buffer_.get()), used + n);
+        auto bigger = std::make_unique_for_overwrite<char[]>(capacity);
+        if (used > 0)
+            std::memcpy(bigger.get(), buffer_.get(), used);
+        buffer_ = std::move(bigger);
+        end_ = buffer_.get() + used;
+        capacity_end_ = buffer_.get() + capacity;
+    }
+
+    /// Writes x at end_, which has room for max_number_chars.
+    template <class Number>
+    void write_number(Number x)
+    {
+        if constexpr (std::is_floating_point_v<Number>) {
+            if (!std::isfinite(x)) { // never sent by the server; what nlohmann would write
+                std::memcpy(end_, "null", 4);
+                end_ += 4;
+                return;
+            }
+            char* const start = end_;
+            end_ = std::to_chars(end_, end_ + max_number_chars, x).ptr;
+            if (std::string_view(start, static_cast<std::size_t>(end_ - start)).find_first_of(".e") ==
+                std::string_view::npos) {
+                std::memcpy(end_, ".0", 2); // 3.0, not 3: a double stays a double on the wire
+                end_ += 2;
+            }
+        } else {
+            end_ = write_integer(end_, x);
+        }
+    }
+
+    std::unique_ptr<char[]> buffer_;
+    char* end_ = nullptr;
+    char* capacity_end_ = nullptr;
 };
 
 } // namespace
@@ -1186,7 +1333,7 @@ private:
 std::string encode(snapshot const& message)
 {
     body_columns const& b = message.bodies;
-    snapshot_writer w(b.size());
+    snapshot_writer w(128 * b.size());
     w.raw(R"({"type":"snapshot","tick":)");
     w.number(message.tick);
     w.raw(R"(,"time":)");
@@ -1245,14 +1392,17 @@ void write_bodies(snapshot_writer& w, compact_bodies const& b)
 
 } // namespace
 
-// Written like the full form: straight into one string. `tick` comes right after `type` in
-// both forms, so a client that only counts snapshots finds it without parsing.
-std::string encode(compact_snapshot const& message)
+namespace {
+
+// Written like the full form: straight into one buffer. `tick` comes right after `type` in
+// both forms, so a client that only counts snapshots finds it without parsing. `body_list`
+// stands for message.bodies (which is not read).
+std::string encode_compact(compact_snapshot const& message, compact_bodies const* body_list)
 {
-    std::size_t const bodies = (message.bodies ? message.bodies->size() : 0) +
+    std::size_t const bodies = (body_list ? body_list->size() : 0) +
                                (message.appeared ? message.appeared->size() : 0) +
                                (message.moved ? message.moved->position.size() / 3 : 0);
-    snapshot_writer w(bodies / 2);
+    snapshot_writer w(24 * bodies);
     w.raw(R"({"type":"snapshot","tick":)");
     w.number(message.tick);
     w.raw(R"(,"form":")");
@@ -1277,9 +1427,9 @@ std::string encode(compact_snapshot const& message)
         w.number((*message.q)[1]);
         w.raw("]");
     }
-    if (message.bodies) {
+    if (body_list) {
         w.raw(R"(,"bodies":)");
-        write_bodies(w, *message.bodies);
+        write_bodies(w, *body_list);
     }
     if (message.moved) {
         w.raw(R"(,"moved":{)");
@@ -1300,6 +1450,29 @@ std::string encode(compact_snapshot const& message)
     }
     w.raw("}");
     return w.take();
+}
+
+} // namespace
+
+std::string encode(compact_snapshot const& message)
+{
+    return encode_compact(message, message.bodies ? &*message.bodies : nullptr);
+}
+
+std::string encode_keyframe(compact_state const& state)
+{
+    compact_snapshot const head{.tick = state.tick,
+                                .form = "key",
+                                .base = std::nullopt,
+                                .time = state.time,
+                                .paused = state.paused,
+                                .faults = state.faults,
+                                .q = std::array{state.q.position, state.q.velocity},
+                                .bodies = std::nullopt,
+                                .moved = std::nullopt,
+                                .appeared = std::nullopt,
+                                .vanished = std::nullopt};
+    return encode_compact(head, &state.bodies);
 }
 
 std::string encode(client_message const& message)

@@ -4,6 +4,7 @@
 // cannot accept gives an `error` naming the field (a JSON pointer) and what was wrong, ready
 // to be sent back. Encoding writes doubles so that they parse back to the same bits.
 
+#include "protocol/compact.hpp"
 #include "protocol/messages.hpp"
 
 #include <optional>
@@ -42,6 +43,8 @@ std::string encode(error const& message);
 std::string encode(snapshot const& message);
 std::string encode(pong const& message);
 std::string encode(compact_snapshot const& message);
+/// encode(keyframe(state)), without copying the state's bodies into a message first.
+std::string encode_keyframe(compact_state const& state);
 std::string encode(server_message const& message);
 
 } // namespace kugel::protocol

@@ -8,57 +8,82 @@
 
 namespace kugel::protocol {
 
+namespace {
+
+/// floor(y) for |y| < 2^62, without a library call: truncation toward zero, one less for a
+/// negative y that is not whole. Exact: every double there truncates to a representable
+/// integer, and converting it back compares exactly.
+std::int64_t floor_to_integer(double y)
+{
+    auto const k = static_cast<std::int64_t>(y);
+    return static_cast<double>(k) > y ? k - 1 : k;
+}
+
+} // namespace
+
 std::int64_t quantize(double x, double quantum)
 {
-    double const steps = std::floor(x / quantum + 0.5);
+    double const y = x / quantum + 0.5;
     auto const limit = static_cast<double>(max_quantized);
-    if (!(steps > -limit)) // also NaN, which no server state holds
-        return steps < 0.0 ? -max_quantized : 0;
-    if (!(steps < limit))
+    if (y > -limit && y < limit) // floor(y) from -limit to limit - 1
+        return floor_to_integer(y);
+    if (y >= limit)
         return max_quantized;
-    return static_cast<std::int64_t>(steps);
+    return y <= -limit ? -max_quantized : 0; // 0 for NaN, which no server state holds
 }
 
 compact_state quantize(snapshot const& full, std::span<body_owner const> owners, quanta q)
 {
     body_columns const& b = full.bodies;
     std::size_t const n = b.size();
-    // Id order: the world's slots are mostly in it already (bodies are appended with rising
-    // ids); a removal or a reordering of the slots breaks it.
-    std::vector<std::uint32_t> order(n);
-    std::iota(order.begin(), order.end(), 0U);
-    if (!std::is_sorted(b.id.begin(), b.id.end()))
-        std::sort(order.begin(), order.end(),
-                  [&](std::uint32_t l, std::uint32_t r) { return b.id[l] < b.id[r]; });
-
     compact_state s{.tick = full.tick, .time = full.time, .paused = full.paused,
                     .faults = full.faults, .q = q, .bodies = {}};
     compact_bodies& c = s.bodies;
-    c.id.resize(n);
-    c.position.resize(3 * n);
-    c.velocity.resize(3 * n);
-    c.radius.resize(n);
-    c.mass.resize(n);
-    c.owner.resize(n);
-    if (b.charge)
-        c.charge.emplace(n);
+    // Id order: the world's slots are mostly in it already (bodies are appended with rising
+    // ids); a removal or a reordering of the slots breaks it.
+    if (std::is_sorted(b.id.begin(), b.id.end())) {
+        c.id = b.id;
+        c.position.reserve(3 * n); // appended, not zero-filled first
+        for (double const x : b.position)
+            c.position.push_back(quantize(x, q.position));
+        c.velocity.reserve(3 * n);
+        for (double const v : b.velocity)
+            c.velocity.push_back(quantize(v, q.velocity));
+        c.radius = b.radius;
+        c.mass = b.mass ? *b.mass : std::vector<double>(n, 0.0);
+        c.charge = b.charge;
+    } else {
+        std::vector<std::uint32_t> order(n);
+        std::iota(order.begin(), order.end(), 0U);
+        std::sort(order.begin(), order.end(),
+                  [&](std::uint32_t l, std::uint32_t r) { return b.id[l] < b.id[r]; });
+        c.position.resize(3 * n);
+        c.velocity.resize(3 * n);
+        c.id.resize(n);
+        c.radius.resize(n);
+        c.mass.resize(n);
+        if (b.charge)
+            c.charge.emplace(n);
+        for (std::size_t k = 0; k < n; ++k) {
+            std::size_t const i = order[k];
+            c.id[k] = b.id[i];
+            for (std::size_t d = 0; d < 3; ++d) {
+                c.position[3 * k + d] = quantize(b.position[3 * i + d], q.position);
+                c.velocity[3 * k + d] = quantize(b.velocity[3 * i + d], q.velocity);
+            }
+            c.radius[k] = b.radius[i];
+            c.mass[k] = b.mass ? (*b.mass)[i] : 0.0;
+            if (b.charge)
+                (*c.charge)[k] = (*b.charge)[i];
+        }
+    }
+    c.owner.assign(n, 0);
     std::size_t next_owner = 0;
-    for (std::size_t k = 0; k < n; ++k) {
-        std::size_t const i = order[k];
-        c.id[k] = b.id[i];
+    for (std::size_t k = 0; k < n && next_owner < owners.size(); ++k) {
         while (next_owner < owners.size() && owners[next_owner].id < c.id[k])
             ++next_owner;
-        c.owner[k] = next_owner < owners.size() && owners[next_owner].id == c.id[k]
-                         ? owners[next_owner].client
-                         : 0;
-        for (std::size_t d = 0; d < 3; ++d) {
-            c.position[3 * k + d] = quantize(b.position[3 * i + d], q.position);
-            c.velocity[3 * k + d] = quantize(b.velocity[3 * i + d], q.velocity);
-        }
-        c.radius[k] = b.radius[i];
-        c.mass[k] = b.mass ? (*b.mass)[i] : 0.0;
-        if (b.charge)
-            (*c.charge)[k] = (*b.charge)[i];
+        if (next_owner < owners.size() && owners[next_owner].id == c.id[k])
+            c.owner[k] = owners[next_owner].client;
     }
     return s;
 }
@@ -74,7 +99,7 @@ std::int64_t predicted_position(std::int64_t base_position, std::int64_t base_ve
     double const moved = static_cast<double>(base_velocity + velocity) * half_steps;
     if (!(std::abs(moved) < static_cast<double>(max_quantized)))
         return base_position; // no prediction that far (or after a hostile base)
-    return base_position + static_cast<std::int64_t>(std::floor(moved + 0.5));
+    return base_position + floor_to_integer(moved + 0.5);
 }
 
 compact_snapshot keyframe(compact_state const& state)
@@ -135,6 +160,8 @@ std::optional<compact_snapshot> delta(compact_state const& base, compact_state c
     double const half_steps = prediction_factor(base.time, now.time, now.q);
 
     compact_moves moved;
+    moved.position.reserve(3 * to.size());
+    moved.velocity.reserve(3 * to.size());
     compact_bodies appeared;
     if (charges)
         appeared.charge.emplace();

@@ -476,11 +476,30 @@ force_settings read_forces(json const& value, location const& at)
     return f;
 }
 
+/// A quantum of the snapshots: a number in [min_quantum, max_quantum].
+double quantum(json const& value, location const& at)
+{
+    double const x = number_at_least(value, at, 0.0, true);
+    if (!(x >= snapshot_settings::min_quantum && x <= snapshot_settings::max_quantum))
+        at.fail("must be between " + format(snapshot_settings::min_quantum) + " and " +
+                format(snapshot_settings::max_quantum) + ", got " + format(x));
+    return x;
+}
+
+snapshot_settings read_snapshots(json const& value, location const& at)
+{
+    object(value, at, {"position_quantum", "velocity_quantum"});
+    snapshot_settings s;
+    s.position_quantum = optional_field(value, "position_quantum", at, 0.0, quantum);
+    s.velocity_quantum = optional_field(value, "velocity_quantum", at, 0.0, quantum);
+    return s;
+}
+
 scene read_scene(json const& doc, location const& at)
 {
     object(doc, at,
            {"$schema", "name", "description", "dt", "substeps", "integrator", "tolerance", "forces",
-            "collisions", "walls", "box", "obstacles", "bodies", "generators"});
+            "collisions", "walls", "box", "obstacles", "bodies", "generators", "snapshots"});
     scene s;
     s.name = optional_field(doc, "name", at, std::string("unnamed"), text);
     s.description = optional_field(doc, "description", at, std::string(), text);
@@ -554,6 +573,8 @@ scene read_scene(json const& doc, location const& at)
                           "balance its own gravity");
         }
     }
+    if (auto const* snapshots = find(doc, "snapshots"))
+        s.snapshots = read_snapshots(*snapshots, at / "snapshots");
     if (s.body_count() > max_scene_bodies)
         at.fail("creates " + std::to_string(s.body_count()) + " bodies, more than the limit of " +
                 std::to_string(max_scene_bodies));

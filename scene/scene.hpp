@@ -97,6 +97,20 @@ struct obstacle_settings
     double friction = 0.0;
 };
 
+/// How a server sends the scene's state (protocol/PROTOCOL.md, compact snapshots): the steps
+/// positions and velocities are quantized to. 0 leaves the choice to the server (from the
+/// scene's size and the snapshot rate); a server option given overrides either.
+struct snapshot_settings
+{
+    double position_quantum = 0.0; ///< m; 0, or in [min_quantum, max_quantum]
+    double velocity_quantum = 0.0; ///< m/s; 0, or in [min_quantum, max_quantum]
+
+    /// Quanta outside these are typos: below, a position needs more than 2^50 quanta within
+    /// a kilometre; above, a body's state is lost in one step.
+    static constexpr double min_quantum = 1e-9;
+    static constexpr double max_quantum = 1e6;
+};
+
 /// A validated scene: everything a world needs, in engine units.
 struct scene
 {
@@ -113,6 +127,7 @@ struct scene
     std::vector<obstacle_settings> obstacles;
     std::vector<physics::body_desc> bodies;
     std::vector<body_generator> generators;
+    snapshot_settings snapshots;
 
     /// Explicit bodies plus every generator's count.
     std::uint64_t body_count() const;

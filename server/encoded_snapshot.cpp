@@ -8,15 +8,35 @@
 namespace kugel::server {
 
 encoded_snapshot::encoded_snapshot(std::uint64_t index, protocol::snapshot full,
-                                   std::shared_ptr<protocol::compact_state const> compact)
-    : index_(index), full_snapshot_(std::move(full)), compact_(std::move(compact))
+                                   std::vector<protocol::body_owner> owners, protocol::quanta q,
+                                   std::shared_ptr<snapshot_form_counters> encoded)
+    : index_(index), full_snapshot_(std::move(full)), owners_(std::move(owners)), quanta_(q),
+      encoded_(std::move(encoded))
 {
+}
+
+void encoded_snapshot::add_delta(delta_form d)
+{
+    if (encoded_)
+        encoded_->count(snapshot_form::delta, d.bytes->size());
+    deltas_.push_back(std::move(d));
+}
+
+std::shared_ptr<protocol::compact_state const> const& encoded_snapshot::compact() const
+{
+    std::call_once(compact_once_, [&] {
+        compact_ = std::make_shared<protocol::compact_state const>(
+            protocol::quantize(full_snapshot_, owners_, quanta_));
+    });
+    return compact_;
 }
 
 std::shared_ptr<std::string const> const& encoded_snapshot::full() const
 {
     std::call_once(full_once_, [&] {
         full_ = std::make_shared<std::string const>(protocol::encode(full_snapshot_));
+        if (encoded_)
+            encoded_->count(snapshot_form::full, full_->size());
     });
     return full_;
 }
@@ -24,7 +44,9 @@ std::shared_ptr<std::string const> const& encoded_snapshot::full() const
 std::shared_ptr<std::string const> const& encoded_snapshot::keyframe() const
 {
     std::call_once(keyframe_once_, [&] {
-        keyframe_ = std::make_shared<std::string const>(protocol::encode(protocol::keyframe(*compact_)));
+        keyframe_ = std::make_shared<std::string const>(protocol::encode_keyframe(*compact()));
+        if (encoded_)
+            encoded_->count(snapshot_form::keyframe, keyframe_->size());
     });
     return keyframe_;
 }
@@ -37,10 +59,8 @@ std::shared_ptr<std::string const> encoded_snapshot::delta_from(std::uint64_t ba
     return nullptr;
 }
 
-void snapshot_chains::encode(encoded_snapshot& s,
-                             std::shared_ptr<protocol::compact_state const> const& now,
-                             std::vector<std::uint64_t> const& every, double keyframe_seconds,
-                             double room_snapshot_rate)
+void snapshot_chains::encode(encoded_snapshot& s, std::vector<std::uint64_t> const& every,
+                             double keyframe_seconds, double room_snapshot_rate)
 {
     std::erase_if(chains_, [&](chain const& c) {
         return std::find(every.begin(), every.end(), c.every) == every.end();
@@ -51,6 +71,7 @@ void snapshot_chains::encode(encoded_snapshot& s,
     for (chain& c : chains_) {
         if (s.index() % c.every != 0)
             continue;
+        std::shared_ptr<protocol::compact_state const> const& now = s.compact();
         // Snapshots of this chain between forced keyframes: at least one.
         double const per_keyframe = keyframe_seconds * room_snapshot_rate / static_cast<double>(c.every);
         bool const keyframe_due =

@@ -1,5 +1,7 @@
 #pragma once
 
+#include "metrics.hpp"
+
 #include "protocol/compact.hpp"
 #include "protocol/messages.hpp"
 
@@ -16,6 +18,8 @@ namespace kugel::server {
 ///  - full: every body in full (protocol 1's form; encoded when the room has a client of
 ///    that form, or when a session first asks);
 ///  - keyframe: the compact form of every body, encoded only when a session needs one;
+///    the quantized state behind it and the deltas is made only when a compact client
+///    listens (or a session that just switched to compact asks for the keyframe);
 ///  - deltas: the compact bodies that changed since the room's previous snapshot of a chain
 ///    (chains_, by how many of the room's snapshots a client's rate skips), encoded by the
 ///    room's encoder in tick order.
@@ -31,26 +35,35 @@ public:
         std::shared_ptr<std::string const> bytes;
     };
 
+    /// What the compact forms are made of: `owners` (sorted by id) name who spawned which
+    /// body, `q` the quanta. Each form encoded is counted in `encoded` (when given).
     encoded_snapshot(std::uint64_t index, protocol::snapshot full,
-                     std::shared_ptr<protocol::compact_state const> compact);
+                     std::vector<protocol::body_owner> owners, protocol::quanta q,
+                     std::shared_ptr<snapshot_form_counters> encoded = nullptr);
 
     /// The room's count of snapshots encoded before this one: a client that takes every
     /// n-th snapshot takes those whose index is a multiple of n.
     std::uint64_t index() const { return index_; }
-    std::uint64_t tick() const { return compact_->tick; }
+    std::uint64_t tick() const { return full_snapshot_.tick; }
 
     std::shared_ptr<std::string const> const& full() const;
+    /// The quantized state (protocol::quantize), made on the first call.
+    std::shared_ptr<protocol::compact_state const> const& compact() const;
     std::shared_ptr<std::string const> const& keyframe() const;
     /// Set by the encoder before the snapshot is offered to any session.
-    void add_delta(delta_form d) { deltas_.push_back(std::move(d)); }
+    void add_delta(delta_form d);
     /// A delta against `base`, if one was encoded; null otherwise.
     std::shared_ptr<std::string const> delta_from(std::uint64_t base) const;
 
 private:
     std::uint64_t index_;
     protocol::snapshot full_snapshot_;
-    std::shared_ptr<protocol::compact_state const> compact_;
+    std::vector<protocol::body_owner> owners_;
+    protocol::quanta quanta_;
+    std::shared_ptr<snapshot_form_counters> encoded_;
     std::vector<delta_form> deltas_;
+    mutable std::once_flag compact_once_;
+    mutable std::shared_ptr<protocol::compact_state const> compact_;
     mutable std::once_flag full_once_;
     mutable std::shared_ptr<std::string const> full_;
     mutable std::once_flag keyframe_once_;
@@ -64,12 +77,11 @@ class snapshot_chains
 {
 public:
     /// Adds to `s` a delta for every chain in `every` that takes it, against that chain's
-    /// last state, and makes `now` their last. A chain's delta is left out (its clients get
+    /// last state, and makes `s`'s compact state their last. A chain's delta is left out (its clients get
     /// the keyframe) when `keyframe_every` of its snapshots have passed since its last
     /// keyframe, when the quanta changed, or when most bodies were replaced. Chains not in
     /// `every` are forgotten.
-    void encode(encoded_snapshot& s, std::shared_ptr<protocol::compact_state const> const& now,
-                std::vector<std::uint64_t> const& every, double keyframe_seconds,
+    void encode(encoded_snapshot& s, std::vector<std::uint64_t> const& every, double keyframe_seconds,
                 double room_snapshot_rate);
 
 private:

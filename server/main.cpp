@@ -205,13 +205,15 @@ int main(int argc, char** argv)
         ->check(CLI::Range(0.001, 10000.0))
         ->capture_default_str();
     app.add_option("--position-quantum", options.position_quantum,
-                   "m: compact snapshots write positions as integers of this (0: 1/10,000 of\n"
-                   "each scene's size, to the decade above)")
+                   "m: compact snapshots write positions as integers of this, in every room\n"
+                   "(0: the scene's snapshots.position_quantum, else 1/10,000 of its size,\n"
+                   "to the decade above)")
         ->check(CLI::Range(0.0, 1e6))
         ->capture_default_str();
     app.add_option("--velocity-quantum", options.velocity_quantum,
-                   "m/s: compact snapshots write velocities as integers of this (0: about one\n"
-                   "position quantum per snapshot interval)")
+                   "m/s: compact snapshots write velocities as integers of this, in every room\n"
+                   "(0: the scene's snapshots.velocity_quantum, else about one position\n"
+                   "quantum per snapshot interval)")
         ->check(CLI::Range(0.0, 1e9))
         ->capture_default_str();
     app.add_option("--keyframe-interval", options.keyframe_interval,

@@ -40,6 +40,12 @@ void append_escaped(std::string& out, std::string_view value)
 
 } // namespace
 
+void snapshot_form_counters::count(snapshot_form form, std::size_t message_bytes)
+{
+    bump(snapshots[static_cast<std::size_t>(form)]);
+    bump(bytes[static_cast<std::size_t>(form)], message_bytes);
+}
+
 void tick_histogram::record(std::chrono::steady_clock::duration cost)
 {
     double const seconds = std::chrono::duration<double>(cost).count();
@@ -223,6 +229,25 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     }
     per_room({"kugel_bytes_out_total", "counter", "Payload bytes of the messages handed to a room's client sockets."},
              [&](room const& r) { return load(r.traffic().bytes_out); });
+    auto const by_form = [&](metrics_text::family const& f, auto counts_of) {
+        m.begin(f);
+        for (auto const& r : rooms)
+            for (std::size_t i = 0; i < snapshot_form_names.size(); ++i)
+                m.sample(f.name, {{"room", r->name()}, {"form", snapshot_form_names[i]}},
+                         load(counts_of(*r)[i]));
+    };
+    by_form({"kugel_snapshots_sent_total", "counter",
+             "Snapshots handed to a room's client sockets, by form: full, or the compact form's keyframe or delta."},
+            [](room const& r) -> auto const& { return r.traffic().sent.snapshots; });
+    by_form({"kugel_snapshot_bytes_sent_total", "counter",
+             "Payload bytes of the snapshots handed to a room's client sockets, by form."},
+            [](room const& r) -> auto const& { return r.traffic().sent.bytes; });
+    by_form({"kugel_snapshots_encoded_total", "counter",
+             "Snapshots a room encoded, by form: each form of a snapshot is encoded at most once, its bytes shared by every client sent it."},
+            [](room const& r) -> auto const& { return r.traffic().encoded.snapshots; });
+    by_form({"kugel_snapshot_bytes_encoded_total", "counter",
+             "Bytes of the snapshots a room encoded, by form."},
+            [](room const& r) -> auto const& { return r.traffic().encoded.bytes; });
     per_room({"kugel_snapshots_dropped_total", "counter",
               "Snapshots replaced before they were sent, because a client read slower than they came."},
              [&](room const& r) { return load(r.traffic().snapshots_dropped); });

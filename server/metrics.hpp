@@ -69,6 +69,20 @@ private:
     std::atomic<std::int64_t> max_ns_{0};
 };
 
+/// The forms a snapshot is sent in: the full form, and the compact form's keyframes and
+/// deltas (protocol/PROTOCOL.md).
+enum class snapshot_form : std::size_t { full, keyframe, delta };
+inline constexpr std::array<std::string_view, 3> snapshot_form_names{"full", "keyframe", "delta"};
+
+/// Snapshots and their bytes by form: a relaxed atomic count each.
+struct snapshot_form_counters
+{
+    std::array<std::atomic<std::uint64_t>, snapshot_form_names.size()> snapshots{};
+    std::array<std::atomic<std::uint64_t>, snapshot_form_names.size()> bytes{};
+
+    void count(snapshot_form form, std::size_t message_bytes);
+};
+
 /// What a room's sessions send and receive, for /metrics. Each session adds to its room's
 /// counters from its own strand (relaxed atomics: counts, not synchronisation).
 struct traffic_counters
@@ -79,6 +93,8 @@ struct traffic_counters
     std::atomic<std::uint64_t> bytes_out{0};         ///< their payload bytes
     std::atomic<std::uint64_t> snapshots_dropped{0}; ///< replaced unsent in a slow client's slot
     std::atomic<std::uint64_t> stalled_clients{0};   ///< disconnected: a send pending past write_stall
+    snapshot_form_counters sent;    ///< snapshots handed to a socket, by form
+    snapshot_form_counters encoded; ///< snapshots encoded (once for all sessions), by form
     std::array<std::atomic<std::uint64_t>, protocol::all_error_codes.size()> rejected{};
 
     void count_rejected(protocol::error_code code);

@@ -260,20 +260,23 @@ void room::grant_admin(std::shared_ptr<websocket_session> session)
     });
 }
 
-protocol::quanta room::quanta_for(scene::scene const&, protocol::welcome const& w) const
+protocol::quanta room::quanta_for(scene::scene const& s, protocol::welcome const& w) const
 {
-    // A position quantum of 1/10,000 of the scene's size, to the decade above (1 mm for a
-    // scene of a few metres): far below what a screen shows. A velocity quantum that moves
-    // a body about one position quantum between two snapshots, to the nearest decade: what
-    // a client's interpolation needs.
-    double const size = std::max(w.scene.bounds.radius, 1e-3);
-    double const position = settings_.position_quantum > 0.0
-                                ? settings_.position_quantum
-                                : std::pow(10.0, std::ceil(std::log10(size))) * 1e-4;
-    double const velocity =
-        settings_.velocity_quantum > 0.0
-            ? settings_.velocity_quantum
-            : std::pow(10.0, std::round(std::log10(position * settings_.snapshot_rate)));
+    // The server's option wins, then the scene's. Otherwise a position quantum of 1/10,000
+    // of the scene's size, to the decade above (1 mm for a scene of a few metres): far below
+    // what a screen shows; and a velocity quantum that moves a body about one position
+    // quantum between two snapshots, to the nearest decade: what a client's interpolation
+    // needs.
+    auto const first_set = [](double option, double scene_value, auto chosen) {
+        return option > 0.0 ? option : scene_value > 0.0 ? scene_value : chosen();
+    };
+    double const position = first_set(settings_.position_quantum, s.snapshots.position_quantum, [&] {
+        double const size = std::max(w.scene.bounds.radius, 1e-3);
+        return std::pow(10.0, std::ceil(std::log10(size))) * 1e-4;
+    });
+    double const velocity = first_set(settings_.velocity_quantum, s.snapshots.velocity_quantum, [&] {
+        return std::pow(10.0, std::round(std::log10(position * settings_.snapshot_rate)));
+    });
     return {position, velocity};
 }
 
@@ -791,10 +794,11 @@ void room::send_snapshot()
                             snapshot = copy_snapshot(), owners = std::move(owners),
                             q = quanta_, any_full, chains = std::move(chains),
                             audience = std::move(audience)]() mutable {
-        auto compact = std::make_shared<protocol::compact_state const>(
-            protocol::quantize(snapshot, owners, q));
-        auto forms = std::make_shared<encoded_snapshot>(index, std::move(snapshot), compact);
-        self->chains_.encode(*forms, compact, chains, self->settings_.keyframe_interval,
+        // Quantized only for a compact client: a room of full-form clients never pays for it.
+        auto forms = std::make_shared<encoded_snapshot>(
+            index, std::move(snapshot), std::move(owners), q,
+            std::shared_ptr<snapshot_form_counters>(self, &self->traffic_.encoded));
+        self->chains_.encode(*forms, chains, self->settings_.keyframe_interval,
                              self->settings_.snapshot_rate);
         std::size_t bytes = 0;
         if (any_full)

@@ -333,19 +333,18 @@ void websocket_session::queue_snapshot(std::shared_ptr<encoded_snapshot const> s
     write_next();
 }
 
-std::shared_ptr<std::string const> websocket_session::bytes_of(encoded_snapshot const& snapshot)
+std::pair<std::shared_ptr<std::string const>, snapshot_form>
+websocket_session::bytes_of(encoded_snapshot const& snapshot)
 {
     if (!compact_)
-        return snapshot.full();
+        return {snapshot.full(), snapshot_form::full};
     // A delta only against the state the client holds; otherwise (it just joined, or its
     // slot was replaced before the delta's base was written) the keyframe.
-    std::shared_ptr<std::string const> bytes;
-    if (compact_held_)
-        bytes = snapshot.delta_from(*compact_held_);
-    if (!bytes)
-        bytes = snapshot.keyframe();
-    compact_held_ = snapshot.tick();
-    return bytes;
+    std::optional<std::uint64_t> const held = std::exchange(compact_held_, snapshot.tick());
+    if (held)
+        if (auto bytes = snapshot.delta_from(*held))
+            return {std::move(bytes), snapshot_form::delta};
+    return {snapshot.keyframe(), snapshot_form::keyframe};
 }
 
 void websocket_session::write_next()
@@ -358,9 +357,11 @@ void websocket_session::write_next()
         replies_.pop_front();
         bump(traffic.replies_out);
     } else if (latest_snapshot_) {
-        in_flight_ = bytes_of(*latest_snapshot_);
+        auto [bytes, form] = bytes_of(*latest_snapshot_);
+        in_flight_ = std::move(bytes);
         latest_snapshot_.reset();
         bump(traffic.snapshots_out);
+        traffic.sent.count(form, in_flight_->size());
     } else {
         return;
     }

@@ -1,5 +1,6 @@
 #pragma once
 
+#include "metrics.hpp"
 #include "network.hpp"
 #include "options.hpp"
 
@@ -9,6 +10,7 @@
 #include <memory>
 #include <optional>
 #include <string>
+#include <utility>
 
 namespace kugel::server {
 
@@ -67,7 +69,7 @@ private:
     void queue_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
     /// The bytes to send of a snapshot: the full form, a delta against what the client
     /// holds, or the keyframe.
-    std::shared_ptr<std::string const> bytes_of(encoded_snapshot const& snapshot);
+    std::pair<std::shared_ptr<std::string const>, snapshot_form> bytes_of(encoded_snapshot const& snapshot);
     void write_next();
     void on_write(beast::error_code ec, std::size_t bytes);
     void close_with(websocket::close_code code, std::string_view reason);

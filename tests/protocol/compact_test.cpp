@@ -113,6 +113,40 @@ TEST(CompactSnapshots, QuantizeRoundsToTheNearestStepAndClampsFarAway)
     EXPECT_EQ(quantize(-1e300, 1e-3), -max_quantized);
 }
 
+TEST(CompactSnapshots, QuantizeAndPredictionAreTheFloorFormulasExactly)
+{
+    // The formulas of PROTOCOL.md with std::floor, against the library's own rounding, on
+    // halves, values next to whole numbers, the clamp's edges and random values.
+    auto const limit = static_cast<double>(max_quantized);
+    auto const by_formula = [&](double x, double quantum) -> std::int64_t {
+        double const steps = std::floor(x / quantum + 0.5);
+        if (std::isnan(steps))
+            return 0;
+        return static_cast<std::int64_t>(std::clamp(steps, -limit, limit));
+    };
+    std::vector<double> xs{0.0, -0.0, 0.5, -0.5, 1.5, -1.5, 2.5, -2.5, 1e-300, -1e-300,
+                           std::nextafter(0.5, 0.0), std::nextafter(-0.5, -1.0), limit - 0.5,
+                           limit - 1.0, -limit + 0.5, -limit + 0.25, -limit - 1.0, limit * 4.0,
+                           -limit * 4.0, 1e300, -1e300, std::nan("")};
+    std::mt19937_64 rng(3);
+    std::uniform_real_distribution<double> u(-1.0, 1.0);
+    for (int i = 0; i < 100000; ++i)
+        xs.push_back(u(rng) * std::pow(10.0, static_cast<double>(rng() % 40) - 10.0));
+    for (double const x : xs) {
+        EXPECT_EQ(quantize(x, 1.0), by_formula(x, 1.0)) << x;
+        EXPECT_EQ(quantize(x, 1e-3), by_formula(x, 1e-3)) << x;
+    }
+    for (int i = 0; i < 100000; ++i) {
+        auto const base = static_cast<std::int64_t>(rng() % 2000000) - 1000000;
+        auto const v0 = static_cast<std::int64_t>(rng() % 20001) - 10000;
+        auto const v1 = static_cast<std::int64_t>(rng() % 20001) - 10000;
+        double const k = prediction_factor(0.0, static_cast<double>(rng() % 100) / 60.0, {1e-3, 1e-2});
+        double const m = static_cast<double>(v0 + v1) * k;
+        EXPECT_EQ(predicted_position(base, v0, v1, k), base + static_cast<std::int64_t>(std::floor(m + 0.5)));
+    }
+    EXPECT_EQ(predicted_position(5, max_quantized, max_quantized, 1.0), 5); // no prediction that far
+}
+
 TEST(CompactSnapshots, AKeyframeDecodesToTheFullFormToTheQuantum)
 {
     toy_world w;

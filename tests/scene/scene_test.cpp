@@ -174,6 +174,20 @@ INSTANTIATE_TEST_SUITE_P(
         bad_case{"inverted_region",
                  R"({"dt": 0.1, "generators": [{"count": 2, "mass": 1, "region": {"min": [0,0,0], "max": [1,-1,1]}}]})",
                  "/generators/0/region/max: must be >= min on every axis", false},
+        bad_case{"zero_position_quantum", R"({"dt": 0.1, "snapshots": {"position_quantum": 0}})",
+                 "/snapshots/position_quantum: must be > 0, got 0"},
+        bad_case{"negative_velocity_quantum", R"({"dt": 0.1, "snapshots": {"velocity_quantum": -0.01}})",
+                 "/snapshots/velocity_quantum: must be > 0, got -0.01"},
+        bad_case{"absurd_position_quantum", R"({"dt": 0.1, "snapshots": {"position_quantum": 1e300}})",
+                 "/snapshots/position_quantum: must be between 1e-09 and 1e+06, got 1e+300"},
+        bad_case{"tiny_velocity_quantum", R"({"dt": 0.1, "snapshots": {"velocity_quantum": 1e-20}})",
+                 "/snapshots/velocity_quantum: must be between 1e-09 and 1e+06"},
+        bad_case{"quantum_as_string", R"({"dt": 0.1, "snapshots": {"position_quantum": "1mm"}})",
+                 "/snapshots/position_quantum: must be a number, got string"},
+        bad_case{"unknown_snapshot_field", R"({"dt": 0.1, "snapshots": {"rate": 10}})",
+                 "/snapshots/rate: unknown field"},
+        bad_case{"overflowing_quantum", R"({"dt": 0.1, "snapshots": {"position_quantum": 1e999}})",
+                 "not valid JSON", false},
         bad_case{"bodies_not_array", R"({"dt": 0.1, "bodies": {}})", "/bodies: must be an array"},
         bad_case{"unknown_collision_mode", R"({"dt": 0.1, "collisions": {"mode": "sometimes"}})",
                  "/collisions/mode: unknown collision mode 'sometimes' (known: off, discrete, continuous)"},
@@ -331,6 +345,21 @@ TEST(SceneOverrides, BadOverridesAreRefusedClearly)
     EXPECT_NE(error_of(small_scene, {"name=\xc3"}).find("not UTF-8 text"), std::string::npos);
     EXPECT_NE(error_of(small_scene, {"na\xffme=1"}).find("not UTF-8 text"), std::string::npos);
     EXPECT_EQ(parse_scene(small_scene, "test.json", std::vector<std::string>{"name=K\xc3\xbcgel"}).name, "K\xc3\xbcgel");
+}
+
+TEST(SceneSnapshots, QuantaAreReadAndDefaultToTheServersChoice)
+{
+    scene const chosen = parse_scene(R"({"dt": 0.1, "snapshots": {"position_quantum": 0.0005,
+                                         "velocity_quantum": 0.05}})", "test.json");
+    EXPECT_EQ(chosen.snapshots.position_quantum, 0.0005);
+    EXPECT_EQ(chosen.snapshots.velocity_quantum, 0.05);
+    scene const half = parse_scene(R"({"dt": 0.1, "snapshots": {"velocity_quantum": 2}})", "test.json");
+    EXPECT_EQ(half.snapshots.position_quantum, 0.0); // the server chooses
+    EXPECT_EQ(half.snapshots.velocity_quantum, 2.0);
+    EXPECT_EQ(parse_scene(R"({"dt": 0.1})", "test.json").snapshots.position_quantum, 0.0);
+    std::vector<std::string> const set{"snapshots.position_quantum=0.25"};
+    EXPECT_EQ(parse_scene(R"({"dt": 0.1})", "test.json", set).snapshots.position_quantum, 0.25);
+    EXPECT_TRUE(schema().accepts(nlohmann::json::parse(R"({"dt": 0.1, "snapshots": {"position_quantum": 1e-9, "velocity_quantum": 1e6}})")));
 }
 
 TEST(SceneGenerators, AreSeededAndStayInsideTheirLimits)

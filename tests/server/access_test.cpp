@@ -384,6 +384,13 @@ TEST(Admin, ABadSceneIsRefusedWithTheLoadersMessageAndChangesNothing)
                    "room_full", "/scene");
     expect_refused(admin.command(json{{"type", "load_scene"}, {"ref", 3}, {"scene", json::object()}}),
                    "bad_value", "/scene");
+    json odd_quanta = drop_scene();
+    odd_quanta["snapshots"] = {{"position_quantum", -0.001}};
+    json const quanta_refused = admin.command(json{{"type", "load_scene"}, {"ref", 5}, {"scene", odd_quanta}});
+    expect_refused(quanta_refused, "bad_value", "/scene");
+    EXPECT_NE(quanta_refused.at("message").get<std::string>().find("/snapshots/position_quantum: must be > 0"),
+              std::string::npos)
+        << quanta_refused.dump();
 
     // Still the still scene: its one body, and no new welcome came before this snapshot.
     json const spawned = admin.command(spawn_at(4, {0, 5, 0}));

@@ -200,6 +200,32 @@ TEST(CompactSnapshots, ALowerRateTakesEveryNthSnapshotAsDeltas)
     EXPECT_GT(c.deltas, 3 * c.keys);
 }
 
+TEST(CompactSnapshots, TheScenesQuantaAreAnnouncedAndTheServersOptionWins)
+{
+    json scene = churn_scene();
+    scene["snapshots"] = {{"position_quantum", 0.002}, {"velocity_quantum", 0.05}};
+    server_options o = churn_options("kugel_compact_quanta.json");
+    o.rooms[0].scene_file = test_support::write_scene(fs::path(testing::TempDir()) / "kugel_compact_quanta.json", scene);
+    auto const announced = [](server_options const& options) {
+        test_support::in_process_server s(options);
+        compact_client c(s.port(), {{"type", "hello"}, {"snapshots", {{"form", "compact"}}}});
+        c.next_snapshot();
+        EXPECT_EQ(c.keys, 1);
+        EXPECT_EQ(c.held->q.position, c.welcome.at("snapshots").at("position_quantum").get<double>());
+        EXPECT_EQ(c.held->q.velocity, c.welcome.at("snapshots").at("velocity_quantum").get<double>());
+        return c.held->q;
+    };
+    EXPECT_EQ(announced(o), (protocol::quanta{0.002, 0.05})); // the scene's
+    o.position_quantum = 0.004;
+    EXPECT_EQ(announced(o), (protocol::quanta{0.004, 0.05})); // the server's option, then the scene's
+    o.velocity_quantum = 0.25;
+    EXPECT_EQ(announced(o), (protocol::quanta{0.004, 0.25}));
+    o.rooms[0].overrides = {"snapshots.velocity_quantum=0.125"}; // the option still wins
+    EXPECT_EQ(announced(o), (protocol::quanta{0.004, 0.25}));
+    o.velocity_quantum = 0.0;
+    EXPECT_EQ(announced(o), (protocol::quanta{0.004, 0.125}));
+}
+
 TEST(CompactSnapshots, AClientThatAsksForNothingGetsTheFullFormAndNoSecondWelcome)
 {
     test_support::in_process_server s(churn_options("kugel_compact_none.json"));

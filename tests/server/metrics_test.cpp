@@ -215,6 +215,120 @@ TEST(Metrics, CountersMoveByExactlyTheTrafficSent)
     EXPECT_EQ(after.at(R"(kugel_stalled_clients_total{room="lab"})"), 0);
 }
 
+/// Snapshots and bytes a client read, by form ("full", "keyframe", "delta").
+struct read_by_form
+{
+    std::map<std::string, double> snapshots, bytes;
+
+    void read_snapshots(ws_client& c, int n)
+    {
+        for (int got = 0; got < n;) {
+            auto const text = c.read();
+            ASSERT_TRUE(text) << "no snapshot in time";
+            json const m = json::parse(*text);
+            if (m.at("type") != "snapshot")
+                continue;
+            std::string const form = !m.contains("form") ? "full" : m.at("form") == "key" ? "keyframe" : "delta";
+            snapshots[form] += 1;
+            bytes[form] += static_cast<double>(text->size());
+            ++got;
+        }
+    }
+};
+
+std::string by_form(std::string const& family, std::string const& form)
+{
+    return family + R"({room="lab",form=")" + form + R"("})";
+}
+
+TEST(Metrics, SnapshotsAndTheirBytesAreCountedByForm)
+{
+    test_support::in_process_server s(lab(20));
+    ws_client full(s.port(), "/ws/lab");
+    ws_client compact(s.port(), "/ws/lab");
+    full.next("welcome");
+    compact.next("welcome");
+    compact.send(json{{"type", "hello"}, {"snapshots", {{"form", "compact"}}}});
+    compact.next("welcome");
+    read_by_form seen;
+    seen.read_snapshots(full, 10);
+    seen.read_snapshots(compact, 10);
+    ASSERT_FALSE(HasFatalFailure());
+    EXPECT_GE(seen.snapshots["keyframe"], 1);
+    EXPECT_GE(seen.snapshots["delta"], 5);
+
+    auto const m = scrape(s.port());
+    for (std::string const form : {"full", "keyframe", "delta"}) {
+        // Counted before it is handed to the socket: whatever a client read is in the count.
+        EXPECT_GE(m.at(by_form("kugel_snapshots_sent_total", form)), seen.snapshots[form]) << form;
+        EXPECT_GE(m.at(by_form("kugel_snapshot_bytes_sent_total", form)), seen.bytes[form]) << form;
+        // Each form encoded once for every client: never more encodings than snapshots sent.
+        EXPECT_GE(m.at(by_form("kugel_snapshots_encoded_total", form)), 1) << form;
+        EXPECT_GT(m.at(by_form("kugel_snapshot_bytes_encoded_total", form)), 0) << form;
+    }
+    // A still scene: a delta is its head alone, a keyframe every body.
+    EXPECT_LT(m.at(by_form("kugel_snapshot_bytes_sent_total", "delta")) / m.at(by_form("kugel_snapshots_sent_total", "delta")),
+              m.at(by_form("kugel_snapshot_bytes_sent_total", "keyframe")) / m.at(by_form("kugel_snapshots_sent_total", "keyframe")) / 4);
+}
+
+TEST(Metrics, SentByFormAddsUpToTheSnapshotsSent)
+{
+    test_support::in_process_server s(lab(5));
+    {
+        ws_client full(s.port(), "/ws/lab");
+        ws_client compact(s.port(), "/ws/lab");
+        compact.next("welcome");
+        compact.send(json{{"type", "hello"}, {"snapshots", {{"form", "compact"}}}});
+        read_by_form seen;
+        seen.read_snapshots(compact, 5);
+        seen.read_snapshots(full, 5);
+    }
+    // Once the room has forgotten both clients, nothing more is sent: the counters stand.
+    auto m = scrape(s.port());
+    auto const until = std::chrono::steady_clock::now() + std::chrono::seconds(10);
+    while (m.at(R"(kugel_clients{room="lab"})") > 0 && std::chrono::steady_clock::now() < until) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(20));
+        m = scrape(s.port());
+    }
+    ASSERT_EQ(m.at(R"(kugel_clients{room="lab"})"), 0);
+    std::this_thread::sleep_for(std::chrono::milliseconds(200)); // sends already posted land
+    m = scrape(s.port());
+    double snapshots = 0, bytes = 0;
+    for (std::string const form : {"full", "keyframe", "delta"}) {
+        snapshots += m.at(by_form("kugel_snapshots_sent_total", form));
+        bytes += m.at(by_form("kugel_snapshot_bytes_sent_total", form));
+    }
+    EXPECT_EQ(snapshots, m.at(R"(kugel_messages_out_total{room="lab",kind="snapshot"})"));
+    EXPECT_GE(snapshots, 10);
+    EXPECT_LT(bytes, m.at(R"(kugel_bytes_out_total{room="lab"})")); // the replies are the rest
+}
+
+TEST(Metrics, ARoomOfFullFormClientsEncodesNoCompactForm)
+{
+    test_support::in_process_server s(lab(20));
+    ws_client full(s.port(), "/ws/lab");
+    full.next("welcome");
+    read_by_form seen;
+    seen.read_snapshots(full, 10);
+    auto m = scrape(s.port());
+    EXPECT_GE(m.at(by_form("kugel_snapshots_encoded_total", "full")), 10);
+    for (std::string const form : {"keyframe", "delta"}) {
+        EXPECT_EQ(m.at(by_form("kugel_snapshots_encoded_total", form)), 0) << form;
+        EXPECT_EQ(m.at(by_form("kugel_snapshots_sent_total", form)), 0) << form;
+    }
+
+    // Asking for the compact form later: a keyframe first (quantized when first needed),
+    // then deltas, which the client can apply.
+    full.send(json{{"type", "hello"}, {"snapshots", {{"form", "compact"}}}});
+    full.next("welcome");
+    seen = {};
+    seen.read_snapshots(full, 10);
+    EXPECT_GE(seen.snapshots["keyframe"], 1);
+    EXPECT_GE(seen.snapshots["delta"], 5);
+    m = scrape(s.port());
+    EXPECT_GE(m.at(by_form("kugel_snapshots_encoded_total", "keyframe")), 1);
+}
+
 TEST(Metrics, TickLatenessCountsTicksMoreThanOnePeriodLate)
 {
     using std::chrono::milliseconds;
