@@ -8,7 +8,7 @@ include(CMakePackageConfigHelpers)
 
 install(TARGETS kugel_protocol kugel_client EXPORT KugelTargets
   ARCHIVE DESTINATION ${CMAKE_INSTALL_LIBDIR})
-install(FILES protocol/codec.hpp protocol/error_code.hpp protocol/messages.hpp
+install(FILES protocol/codec.hpp protocol/compact.hpp protocol/error_code.hpp protocol/messages.hpp
   DESTINATION ${CMAKE_INSTALL_INCLUDEDIR}/protocol)
 install(FILES client/connection.hpp client/latency_histogram.hpp client/stalled_connection.hpp
   client/url.hpp
