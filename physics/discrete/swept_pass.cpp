@@ -49,8 +49,9 @@ aabb grown(aabb box, double by)
 // lighter (a body of equal or larger mass, or a wall, sends it on at most at the fast body's
 // speed), so what the two do after the meeting stays within that reach; every sphere whose
 // own path box comes into it is swept with them. A body the sweep changed whose last path
-// still leaves the reach of the fast body that drew it in is counted in unswept_fast_bodies:
-// it may have passed through a sphere outside. When every sphere is swept, none is outside.
+// still leaves the reach of the fast body that drew it in, and comes near a sphere left out,
+// is counted in unswept_fast_bodies: it may have passed through that sphere. When every
+// sphere is swept, none is outside.
 void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete_workspace& ws,
                 collision_stats& stats)
 {
@@ -159,8 +160,20 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
     else
         stats.swept_bodies += fast_boxes;
 
-    // 5. Back to the bodies: the fast ones, and the others the events changed.
+    // 5. Back to the bodies: the fast ones, and the others the events changed. A body whose
+    //    last path leaves the reach that drew it in may still have met only swept spheres:
+    //    it may have passed through another only if that path's box meets the path box of a
+    //    sphere left out (those near the reaches are among the boxes; any other lies clear of
+    //    the box around every reach).
     bool const every_sphere = m == std::size_t{walls_done.extent.spheres};
+    auto const may_meet_unswept = [&](aabb const& last) {
+        if (!inside(last, all_reaches))
+            return true;
+        for (std::size_t k = fast_boxes; k < sw.boxes.size(); ++k)
+            if (sw.home[sw.box_body[k]] == none && overlaps(last, sw.boxes[k]))
+                return true;
+        return false;
+    };
     for (std::size_t k = 0; k < m; ++k) {
         std::uint32_t const i = sw.members[k];
         std::uint32_t const home = sw.home[i];
@@ -173,7 +186,7 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
         if (!every_sphere) {
             vec3 const before = sw.x[k] - h * sw.v[k];
             aabb const last = grown({before.cwiseMin(sw.x[k]), before.cwiseMax(sw.x[k])}, sw.radius[k]);
-            if (!inside(last, sw.boxes[home]))
+            if (!inside(last, sw.boxes[home]) && may_meet_unswept(last))
                 ++stats.unswept_fast_bodies;
         }
         if (!is_fast)
