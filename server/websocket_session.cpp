@@ -15,6 +15,12 @@ namespace kugel::server {
 
 namespace {
 
+/// A compact client a little behind gets at most this many unsent snapshots, as a run of
+/// deltas, and at most this many bytes of them after the first, before a newer snapshot
+/// replaces them all (and then comes as a keyframe).
+constexpr std::size_t most_pending_snapshots = 4;
+constexpr std::size_t most_pending_delta_bytes = 64 * 1024;
+
 std::optional<std::uint64_t> ref_of(protocol::client_message const& message)
 {
     return std::visit(
@@ -327,9 +333,23 @@ void websocket_session::queue_snapshot(std::shared_ptr<encoded_snapshot const> s
         bump(room_->traffic().stalled_clients);
         return drop_connection("not reading: a send has been pending too long");
     }
-    if (latest_snapshot_)
-        bump(room_->traffic().snapshots_dropped);
-    latest_snapshot_ = std::move(snapshot); // a newer snapshot replaces an unsent one
+    if (!pending_snapshots_.empty()) {
+        // On the compact form a snapshot may follow an unsent one as the delta against it, up
+        // to a short run; otherwise a newer snapshot replaces every unsent one.
+        if (compact_ && pending_snapshots_.size() < most_pending_snapshots) {
+            std::size_t bytes = 0;
+            for (std::size_t k = 1; k < pending_snapshots_.size(); ++k)
+                bytes += pending_snapshots_[k]->delta_from(pending_snapshots_[k - 1]->tick())->size();
+            if (auto const follows = snapshot->delta_from(pending_snapshots_.back()->tick());
+                follows && bytes + follows->size() <= most_pending_delta_bytes) {
+                pending_snapshots_.push_back(std::move(snapshot));
+                return write_next();
+            }
+        }
+        bump(room_->traffic().snapshots_dropped, pending_snapshots_.size());
+        pending_snapshots_.clear();
+    }
+    pending_snapshots_.push_back(std::move(snapshot));
     write_next();
 }
 
@@ -356,10 +376,10 @@ void websocket_session::write_next()
         in_flight_ = std::move(replies_.front());
         replies_.pop_front();
         bump(traffic.replies_out);
-    } else if (latest_snapshot_) {
-        auto [bytes, form] = bytes_of(*latest_snapshot_);
+    } else if (!pending_snapshots_.empty()) {
+        auto [bytes, form] = bytes_of(*pending_snapshots_.front());
         in_flight_ = std::move(bytes);
-        latest_snapshot_.reset();
+        pending_snapshots_.pop_front();
         bump(traffic.snapshots_out);
         traffic.sent.count(form, in_flight_->size());
     } else {
@@ -391,7 +411,7 @@ void websocket_session::close_with(websocket::close_code code, std::string_view 
         return;
     closing_ = true;
     replies_.clear();
-    latest_snapshot_.reset();
+    pending_snapshots_.clear();
     held_while_paused_.reset(); // the caller holds the session
     if (!accepted_)
         return drop_connection("closed before the handshake finished");
@@ -409,7 +429,7 @@ void websocket_session::drop_connection(char const* why)
     spdlog::warn("client {} ({}): {}; disconnected", client_id_, peer_, why);
     closing_ = true;
     replies_.clear();
-    latest_snapshot_.reset();
+    pending_snapshots_.clear();
     held_while_paused_.reset(); // the caller holds the session
     beast::error_code ignored;
     beast::get_lowest_layer(ws_).socket().shutdown(tcp::socket::shutdown_both, ignored);
