@@ -259,7 +259,7 @@ snapshot random_snapshot(std::mt19937_64& rng, std::size_t n, bool charges)
 TEST(SnapshotWriter, FullFormIsTheOldWritersTextByteForByte)
 {
     std::mt19937_64 rng(7);
-    for (std::size_t n : {0, 1, 2, 17, 1000}) {
+    for (std::size_t n : {0U, 1U, 2U, 17U, 1000U}) {
         for (bool charges : {false, true}) {
             snapshot s = random_snapshot(rng, n, charges);
             EXPECT_EQ(encode(s), old_writer::old_encode(s)) << n << " bodies";
@@ -273,7 +273,7 @@ TEST(SnapshotWriter, CompactFormsAreTheOldWritersTextByteForByte)
 {
     std::mt19937_64 rng(11);
     std::uniform_real_distribution<double> step(-0.2, 0.2);
-    for (std::size_t n : {0, 1, 3, 40, 2000}) {
+    for (std::size_t n : {0U, 1U, 3U, 40U, 2000U}) {
         for (bool charges : {false, true}) {
             snapshot s = random_snapshot(rng, n, charges);
             std::vector<body_owner> owners;
