@@ -1461,17 +1461,7 @@ std::string encode(compact_snapshot const& message)
 
 std::string encode_keyframe(compact_state const& state)
 {
-    compact_snapshot const head{.tick = state.tick,
-                                .form = "key",
-                                .base = std::nullopt,
-                                .time = state.time,
-                                .paused = state.paused,
-                                .faults = state.faults,
-                                .q = std::array{state.q.position, state.q.velocity},
-                                .bodies = std::nullopt,
-                                .moved = std::nullopt,
-                                .appeared = std::nullopt,
-                                .vanished = std::nullopt};
+    compact_snapshot const head = keyframe_head(state);
     return encode_compact(head, &state.bodies);
 }
 

@@ -102,7 +102,7 @@ std::int64_t predicted_position(std::int64_t base_position, std::int64_t base_ve
     return base_position + floor_to_integer(moved + 0.5);
 }
 
-compact_snapshot keyframe(compact_state const& state)
+compact_snapshot keyframe_head(compact_state const& state)
 {
     return {.tick = state.tick,
             .form = "key",
@@ -111,10 +111,17 @@ compact_snapshot keyframe(compact_state const& state)
             .paused = state.paused,
             .faults = state.faults,
             .q = std::array{state.q.position, state.q.velocity},
-            .bodies = state.bodies,
+            .bodies = std::nullopt,
             .moved = std::nullopt,
             .appeared = std::nullopt,
             .vanished = std::nullopt};
+}
+
+compact_snapshot keyframe(compact_state const& state)
+{
+    compact_snapshot k = keyframe_head(state);
+    k.bodies = state.bodies;
+    return k;
 }
 
 namespace {

@@ -66,6 +66,8 @@ double prediction_factor(double base_time, double time, quanta q);
 
 /// The keyframe of a state.
 compact_snapshot keyframe(compact_state const& state);
+/// The keyframe without its bodies: what encode_keyframe writes ahead of the state's own.
+compact_snapshot keyframe_head(compact_state const& state);
 /// The delta that takes `base` to `now`, or nothing when a keyframe serves better: the
 /// quanta differ, or more bodies appeared and vanished than stayed.
 std::optional<compact_snapshot> delta(compact_state const& base, compact_state const& now);
