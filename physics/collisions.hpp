@@ -111,9 +111,8 @@ struct collision_stats
     std::uint64_t swept_bodies = 0;
     /// Discrete mode: bodies that moved that far and were not swept, or not to the end, each
     /// a contact that may have been missed (a sphere passed through): the sweep off, its
-    /// events capped (then capped_steps counts the step too), a path not finite, or a body the
-    /// sweep sent on past the region swept around the fast ones. Zero while the sweep is on
-    /// and nothing was capped.
+    /// events capped (then capped_steps counts the step too), or a path not finite. Zero
+    /// while the sweep is on and nothing was capped.
     std::uint64_t unswept_fast_bodies = 0;
 
     std::uint64_t contacts() const { return sphere_contacts + wall_contacts + obstacle_contacts; }

@@ -27,6 +27,16 @@ struct workspace
     std::vector<std::uint32_t> changed;  ///< by body: when its path last changed, as a count of changes in the step (0: not yet)
     std::vector<std::uint64_t> events_of; ///< by body: events it took part in this step
     std::vector<event> queue;            ///< a min-heap by operator>
+    /// Kept only when keep_segments is set (the discrete sweep's): where each body went in the
+    /// step, as its paths from one change to the next.
+    struct segment
+    {
+        std::uint32_t body;
+        double until; ///< s, the path's end (its start is path.t)
+        body_path path;
+    };
+    bool keep_segments = false;
+    std::vector<segment> segments;
     path_grid grid;
     /// Force-free worlds in a closed box: the events kept from step to step instead.
     calendar kept;

@@ -5,6 +5,7 @@
 
 #include "physics/aabb.hpp"
 #include "physics/broadphase.hpp"
+#include "physics/continuous/path_grid.hpp"
 #include "physics/discrete/sphere_grid.hpp"
 #include "physics/discrete/stop_table.hpp"
 #include "physics/vec.hpp"
@@ -56,11 +57,10 @@ struct swept_workspace
 {
     std::vector<std::uint32_t> fast;  ///< body slots, ascending
     std::vector<vec3> fast_start;     ///< m, where each started the step
-    std::vector<aabb> boxes;          ///< the fast bodies' reaches, then the paths of the spheres near them
-    std::vector<std::uint32_t> box_body; ///< body slot of each box
-    std::vector<box_pair> pairs;
-    broadphase_workspace broadphase;
-    std::vector<std::uint32_t> home;  ///< by body slot: the fast body's box that drew it in (or none)
+    std::vector<aabb> box;            ///< by body slot: its path's box over the step
+    std::vector<std::uint8_t> member; ///< by body slot: swept in this step
+    std::vector<std::uint32_t> others; ///< the spheres not fast whose boxes are in the grid, ascending
+    continuous::path_grid grid;       ///< their boxes, to find those a swept path comes near
     std::vector<std::uint32_t> members; ///< the bodies swept: the fast ones and those near, ascending
     std::vector<vec3> x, v, x0, v0;   ///< their copies
     std::vector<double> inverse_mass, radius;

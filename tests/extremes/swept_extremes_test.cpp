@@ -9,6 +9,7 @@
 
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
 #include <random>
 
@@ -92,8 +93,8 @@ TEST(DiscreteSweep, FastSphereHitsARestingRowAndMomentumPassesAlongIt)
     // A unit sphere at 1e4 m/s towards two resting ones of equal mass at x = 50 and x = 150: it
     // stops at x = 48 (t₁ = 4.8 ms), the second runs on and stops at x = 148 (t₂ = 14.6 ms),
     // the third leaves at 1e4 m/s from x = 150. The resting spheres are slow and not fast
-    // themselves: they are swept because their paths lie in the fast one's reach. Tolerances as
-    // in the head-on case.
+    // themselves: they are swept because their paths lie in the fast one's path box.
+    // Tolerances as in the head-on case.
     world w = discrete_world(true);
     body_id const a = w.add_body(sphere_at({0, 0, 0}, {1e4, 0, 0}, 1.0, 1.0));
     body_id const b = w.add_body(sphere_at({50, 0, 0}, {0, 0, 0}, 1.0, 1.0));
@@ -233,6 +234,52 @@ TEST(DiscreteSweep, OneFastSphereInARestingLatticeMeetsItOnItsWay)
     EXPECT_EQ(w.collisions().swept_bodies, 1U);
     EXPECT_EQ(w.collisions().unswept_fast_bodies, 0U);
     EXPECT_EQ(w.escaped(), 0U);
+    EXPECT_LE(w.max_overlap(), 1e-9 * 0.05);
+}
+
+TEST(DiscreteSweep, AChainOfContactsLeavingTheFastPathIsFollowedToItsEnd)
+{
+    // A sphere at 60 m/s grazes a resting one (centres 0.07 m apart across its path, radii
+    // 0.05 m): that one leaves at about 43 m/s at 44° to the path, and in the rest of the step
+    // runs into a third sphere that lies well clear of the fast one's path. Neither resting
+    // sphere is fast, and the third shares no box with the fast path: only the sweep's second
+    // round, from the path the second one took after its contact, draws it in. Twenty more
+    // spheres rest far away, so that not every sphere is swept at once.
+    //
+    // Continuous mode takes the same events on the same paths, so the sweep's answer is its
+    // answer: positions to 1e-12 m (rounding of a few products of 60 m/s and a step), and
+    // momentum and energy of elastic contacts to 16 ε.
+    std::array<body_id, 3> ids; // the same in both worlds
+    auto const build = [&](collision_mode mode) {
+        world_settings s;
+        s.collisions.mode = mode;
+        world w(s);
+        ids[0] = w.add_body(sphere_at({-0.2, 0, 0}, {60, 0, 0}, 1.0, 0.05));
+        vec3 const second(0, 0.07, 0);
+        vec3 const n = vec3(std::sqrt(0.01 - 0.07 * 0.07), 0.07, 0).normalized(); // the contact normal
+        ids[1] = w.add_body(sphere_at(second, {0, 0, 0}, 1.0, 0.05));
+        ids[2] = w.add_body(sphere_at(second + 0.3 * n, {0, 0, 0}, 1.0, 0.05));
+        for (int i = 0; i < 20; ++i)
+            w.add_body(sphere_at({10.0 + 0.5 * i, 10, 10}, {0, 0, 0}, 1.0, 0.05));
+        return w;
+    };
+    world w = build(collision_mode::discrete);
+    world exact = build(collision_mode::continuous);
+    momentum_sum const before = momentum_of(w);
+    double const energy_before = kinetic_energy(w);
+    w.step(h);
+    exact.step(h);
+    EXPECT_EQ(w.collisions().sphere_contacts, 2U);
+    EXPECT_EQ(exact.collisions().sphere_contacts, 2U);
+    EXPECT_EQ(w.collisions().swept_bodies, 1U);
+    EXPECT_EQ(w.collisions().unswept_fast_bodies, 0U);
+    EXPECT_GT(velocity_of(w, ids[2]).norm(), 10.0); // the third was hit
+    for (std::size_t i = 0; i < ids.size(); ++i) {
+        EXPECT_LE((position_of(w, ids[i]) - position_of(exact, ids[i])).norm(), 1e-12) << "body " << i;
+        EXPECT_LE((velocity_of(w, ids[i]) - velocity_of(exact, ids[i])).norm(), 1e-12) << "body " << i;
+    }
+    EXPECT_LE((momentum_of(w).total - before.total).norm(), 16 * std::numeric_limits<double>::epsilon() * before.scale);
+    EXPECT_NEAR(kinetic_energy(w), energy_before, 16 * std::numeric_limits<double>::epsilon() * energy_before);
     EXPECT_LE(w.max_overlap(), 1e-9 * 0.05);
 }
 
