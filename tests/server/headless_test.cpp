@@ -333,41 +333,14 @@ TEST(HeadlessCommand, AStateWithoutFiniteEnergyIsRefusedNamingWhy)
     EXPECT_NE(r.out.find("kinetic infinite J"), std::string::npos) << r.out;
 }
 
-// A run that overflows stops at the step that did it and names the body: with dt = 1e200 the
-// first step of the projectile leaves v·dt + g·dt²/2 beyond the largest double.
-TEST(HeadlessRun, ARunThatLeavesTheDoublesStopsNamingTheStepAndTheBody)
+// A run that overflows stops at the step that did it (dt = 1e200: the first step of the
+// projectile leaves v·dt + g·dt²/2 beyond the largest double), and the process says so in
+// its exit status; what the summary says is in the extremes suite (SceneGuards).
+TEST(HeadlessCommand, ARunThatLeavesTheDoublesExitsOne)
 {
-    std::vector<std::string> const overrides{"dt=1e200"};
-    auto s = scene::load_scene(scene("projectile.json"), overrides);
-    auto const summary = run_headless(s, 10);
-    ASSERT_TRUE(summary.contains("error")) << summary.dump();
-    auto const error = summary["error"].template get<std::string>();
-    EXPECT_NE(error.find("step 1 left body "), std::string::npos) << error;
-    EXPECT_NE(error.find("not finite"), std::string::npos) << error;
-    EXPECT_EQ(summary["steps_completed"], 1);
-    EXPECT_TRUE(nlohmann::json::parse(summary.dump())["energy_final"].is_null()); // as printed
     auto const r = run_server("--scene " + scene("projectile.json") + " --headless --steps 10 --set dt=1e200");
     EXPECT_EQ(r.exit_code, 1);
-}
-
-// Issue #29, point 7: the drift is measured against the energy the run moved about, not
-// against a potential measured from the origin. A ball dropped 1 m onto a floor 1e9 m from
-// the origin: there positions are known to 1.2e-7 m, so its energy is off by about 1e-7 of
-// m·g·h each step, and the drift says so; measured against m·g·1e9 it said 1e-14. The same
-// ball at the origin is exact to rounding (the exact integrator, continuous mode).
-TEST(HeadlessRun, EnergyDriftDoesNotShrinkWithTheDistanceToTheOrigin)
-{
-    auto const drift_at = [](char const* floor, char const* start) {
-        std::string const text = std::string(R"({"name": "far", "dt": 0.016666666666666666,
-            "integrator": "exact_constant_force", "collisions": {"mode": "continuous"},
-            "forces": {"uniform_field": {"g": [0, 0, -9.81]}},
-            "box": {"min": [-10, -10, )") + floor + R"(], "max": [10, 10, 2e9]},
-            "bodies": [{"position": [0, 0, )" + start + R"(], "radius": 0.1, "mass": 1}]})";
-        auto const summary = run_headless(scene::parse_scene(text, "far.json"), 120);
-        return std::abs(summary["energy_rel_drift"].template get<double>());
-    };
-    EXPECT_LT(drift_at("0", "1.1"), 1e-12);
-    EXPECT_GT(drift_at("1e9", "1000000001.1"), 1e-9);
+    EXPECT_NE(r.out.find("step 1 left body "), std::string::npos) << r.out;
 }
 
 TEST(HeadlessCommand, SingularSceneExitsNonZero)
