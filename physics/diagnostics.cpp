@@ -35,8 +35,14 @@ diagnostics measure_motion(world const& w)
 diagnostics measure(world const& w)
 {
     diagnostics d = measure_motion(w);
-    for (auto const& model : w.forces())
-        d.potential += model->potential_energy(w.bodies(), w.bodies().positions());
+    for (auto const& model : w.forces()) {
+        double const u = model->potential_energy(w.bodies(), w.bodies().positions());
+        d.potential += u;
+        if (!model->is_constant()) { // between bodies: a constant force's depends on the origin
+            d.pair_potential += u;
+            d.has_pair_potential = true;
+        }
+    }
     d.total = d.kinetic + d.potential;
     return d;
 }

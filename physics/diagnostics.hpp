@@ -13,6 +13,10 @@ struct diagnostics
 {
     double kinetic = 0.0;                 ///< J, Σ ½·m·v² over dynamic bodies
     double potential = 0.0;               ///< J, summed over the world's force models
+    /// J, the part of `potential` between bodies (gravity, Coulomb): unlike a uniform
+    /// field's, it does not change when the origin moves
+    double pair_potential = 0.0;
+    bool has_pair_potential = false;      ///< a force model between bodies is in the world
     double total = 0.0;                   ///< J, kinetic + potential
     vec3 momentum = vec3::Zero();         ///< kg·m/s, Σ m·v
     vec3 angular_momentum = vec3::Zero(); ///< kg·m²/s, Σ m·x × v about the origin

@@ -16,15 +16,22 @@ namespace {
 
 nlohmann::ordered_json to_json(physics::vec3 const& v) { return {v.x(), v.y(), v.z()}; }
 
-/// (E_final − E_initial) / scale, where scale is the energy the run moved about: the largest
+/// (E_final − E_initial) / scale, with a scale that does not move with the origin. With forces
+/// between bodies (an orbit, charges), |K₀ + U₀| without a uniform field's part: the
+/// |ΔE/E₀| of celestial mechanics, which a close encounter's brief kinetic energy of a
+/// billion times E₀ cannot hide. Otherwise the energy the run moved about: the largest
 /// kinetic energy of any step plus the change of the potential energy from start to end.
-/// Not |K₀| + |U₀|: the potential is measured from the origin, so a ball bouncing 1e9 m from
-/// it would have a scale of m·g·1e9 and a drift a billion times smaller than its error. Zero
-/// only when nothing moved; the drift is then the absolute change.
+/// Never |K₀| + |U₀| with a uniform field: its potential is measured from the origin, so a
+/// ball bouncing 1e9 m from it would have a scale of m·g·1e9 and a drift a billion times
+/// smaller than its error. Zero only when nothing moved; the drift is then the absolute
+/// change.
 double relative_drift(physics::diagnostics const& initial, physics::diagnostics const& final, double most_kinetic)
 {
-    double const scale = std::max({initial.kinetic, final.kinetic, most_kinetic}) +
-                         std::abs(final.potential - initial.potential);
+    double const bound = std::abs(initial.kinetic + initial.pair_potential);
+    double const scale = initial.has_pair_potential && bound > 0.0
+                             ? bound
+                             : std::max({initial.kinetic, final.kinetic, most_kinetic}) +
+                                   std::abs(final.potential - initial.potential);
     double const change = final.total - initial.total;
     return scale > 0.0 ? change / scale : change;
 }
