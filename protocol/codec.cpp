@@ -1133,11 +1133,15 @@ public:
         if constexpr (std::is_integral_v<Number>) {
             // Room for the whole column at once: one check, then integers written in place.
             make_room(values.size() * (max_integer_chars + 1) + 1);
-            char* out = end_; // a local: writing chars does not make the compiler reload it
-            for (std::size_t i = 0; i < values.size(); ++i) {
+            // Locals: a char written through a pointer may alias anything, and the compiler
+            // would reload the end and the vector's bounds after every one.
+            char* out = end_;
+            Number const* const first = values.data();
+            std::size_t const count = values.size();
+            for (std::size_t i = 0; i < count; ++i) {
                 *out = ',';
                 out += i > 0 ? 1 : 0;
-                out = write_integer(out, values[i]);
+                out = write_integer(out, first[i]);
             }
             end_ = out;
         } else {
@@ -1157,12 +1161,14 @@ public:
         open_column(name);
         make_room(ids.size() * (max_integer_chars + 1) + 1);
         char* out = end_;
+        std::uint64_t const* const first = ids.data();
+        std::size_t const count = ids.size();
         std::uint64_t last = 0;
-        for (std::size_t i = 0; i < ids.size(); ++i) {
+        for (std::size_t i = 0; i < count; ++i) {
             *out = ',';
             out += i > 0 ? 1 : 0;
-            out = write_integer(out, ids[i] - last);
-            last = ids[i];
+            out = write_integer(out, first[i] - last);
+            last = first[i];
         }
         end_ = out;
         raw(']');
@@ -1230,24 +1236,21 @@ private:
         if (std::endian::native != std::endian::little || u >= 100'000'000)
             return write_long_integer(at, u);
         // Eight digits, leading zeros included, as one little-endian word (first digit in
-        // the lowest byte); shifted right past the zeros, it is stored whole.
+        // the lowest byte), made by multiplications on all of them at once: v split in two
+        // halves of four digits (one in each 32-bit lane), each into two of two digits (16-bit
+        // lanes), each into two digits (bytes). x / 100 is (x · 10486) >> 20 and x / 10 is
+        // (x · 103) >> 10 for the x that occur here. The leading zeros are the low zero bytes;
+        // shifted right past them, the word is stored whole.
         auto const v = static_cast<std::uint32_t>(u);
-        std::uint32_t const high = v / 10000, low = v % 10000;
-        std::uint64_t const word = pair_bits(high / 100) | pair_bits(high % 100) << 16U |
-                                   pair_bits(low / 100) << 32U | pair_bits(low % 100) << 48U;
-        unsigned const digits = 1U + (v >= 10U) + (v >= 100U) + (v >= 1000U) + (v >= 10000U) +
-                                (v >= 100000U) + (v >= 1000000U) + (v >= 10000000U);
-        std::uint64_t const shown = word >> (8U * (8U - digits));
+        std::uint64_t const halves = (v / 10000U) | std::uint64_t{v % 10000U} << 32U;
+        std::uint64_t const high_pairs = ((halves * 10486U) >> 20U) & 0x0000007F'0000007FULL;
+        std::uint64_t const pairs = (halves - 100U * high_pairs) << 16U | high_pairs;
+        std::uint64_t const high_digits = ((pairs * 103U) >> 10U) & 0x000F000F'000F000FULL;
+        std::uint64_t const digits = (pairs - 10U * high_digits) << 8U | high_digits;
+        auto const zeros = static_cast<unsigned>(std::countr_zero(digits)) / 8U; // v >= 10: at most 6
+        std::uint64_t const shown = (digits + 0x30303030'30303030ULL) >> (8U * zeros);
         std::memcpy(at, &shown, 8);
-        return at + digits;
-    }
-
-    /// The two digits of k < 100 as the bits of two bytes, the first digit lowest.
-    static std::uint64_t pair_bits(std::uint32_t k)
-    {
-        std::uint16_t bits = 0;
-        std::memcpy(&bits, &digit_pairs[2 * k], 2);
-        return bits;
+        return at + (8U - zeros);
     }
 
     /// Any 64-bit u, two digits at a time. Returns the end.
