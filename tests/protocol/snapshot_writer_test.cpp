@@ -308,5 +308,32 @@ TEST(SnapshotWriter, CompactFormsAreTheOldWritersTextByteForByte)
     }
 }
 
+// The writer makes an integer below 10^8 as one word of eight digits: every length from one
+// to sixteen digits, each at its edges (10^k − 1, 10^k, 10^k + 1) and with both signs, in
+// the positions and velocities of a keyframe at quanta of 1, written as the old writer did.
+TEST(SnapshotWriter, IntegersOfEveryLengthAreTheOldWritersText)
+{
+    snapshot s{.tick = 1, .time = 0.0, .paused = false, .faults = 0, .bodies = {}};
+    s.bodies.mass.emplace();
+    std::uint64_t id = 0;
+    double power = 1.0;
+    for (int k = 0; k <= 16; ++k, power *= 10.0) {
+        for (double const edge : {power - 1.0, power, power + 1.0}) {
+            s.bodies.id.push_back(++id);
+            for (int d = 0; d < 3; ++d) {
+                s.bodies.position.push_back(d == 1 ? -edge : edge);
+                s.bodies.velocity.push_back(d == 2 ? -edge : edge);
+            }
+            s.bodies.radius.push_back(1.0);
+            s.bodies.mass->push_back(1.0);
+        }
+    }
+    compact_snapshot const key = keyframe(quantize(s, {}, quanta{1.0, 1.0}));
+    std::string const text = encode(key);
+    EXPECT_EQ(text, old_writer::old_encode(key));
+    for (char const* number : {"[0,", ",-9,", ",99999999,", ",-100000000,", ",10000001,"})
+        EXPECT_NE(text.find(number), std::string::npos) << number;
+}
+
 } // namespace
 } // namespace kugel::protocol
