@@ -270,6 +270,24 @@ public:
         file(std::move(pong), sent.has_value());
     }
 
+    void take(protocol::roster roster, clock::time_point)
+    {
+        players_.clear();
+        for (protocol::player& p : roster.players)
+            players_.insert_or_assign(p.id, std::move(p));
+    }
+
+    void take(protocol::player_notice notice, clock::time_point)
+    {
+        if (notice.change == "left")
+            players_.erase(notice.id);
+        else
+            players_.insert_or_assign(notice.id, protocol::player{notice.id, notice.name});
+        notices_.push_back(std::move(notice));
+        while (notices_.size() > std::max<std::size_t>(options_.kept_player_notices, 1))
+            notices_.pop_front();
+    }
+
     void take(protocol::error error, clock::time_point)
     {
         ++stats_.errors[std::string(protocol::name(error.code))];
@@ -498,6 +516,27 @@ public:
         return r;
     }
 
+    std::vector<protocol::player> players() const
+    {
+        std::lock_guard lock(mutex_);
+        std::vector<protocol::player> out;
+        out.reserve(players_.size());
+        for (auto const& [id, p] : players_)
+            out.push_back(p);
+        return out;
+    }
+
+    std::optional<protocol::player_notice> next_player_notice(std::chrono::milliseconds timeout)
+    {
+        std::unique_lock lock(mutex_);
+        changed_.wait_for(lock, timeout, [&] { return !notices_.empty() || closed_; });
+        if (notices_.empty())
+            return std::nullopt;
+        protocol::player_notice notice = std::move(notices_.front());
+        notices_.pop_front();
+        return notice;
+    }
+
     std::optional<reply> next_unmatched_reply(std::chrono::milliseconds timeout)
     {
         std::unique_lock lock(mutex_);
@@ -642,6 +681,8 @@ private:
     std::set<std::uint64_t> spawn_refs_; ///< refs of spawns not yet acknowledged
     std::vector<std::uint64_t> spawned_; ///< ids of the bodies our spawns made, in ack order
     std::deque<reply> unmatched_;
+    std::map<std::uint64_t, protocol::player> players_;  ///< the room's, by id
+    std::deque<protocol::player_notice> notices_;        ///< not yet taken
     std::deque<std::shared_ptr<protocol::snapshot const>> snapshots_;
     /// The compact state of the last compact snapshot applied (I/O thread only).
     std::optional<protocol::compact_state> compact_held_;
@@ -746,6 +787,16 @@ std::size_t connection::remove_spawned(std::chrono::milliseconds timeout)
         live.forget_spawned(id); // removed now, or gone before (unknown_body)
     }
     return removed;
+}
+
+std::vector<protocol::player> connection::players() const
+{
+    return state_->live->players();
+}
+
+std::optional<protocol::player_notice> connection::next_player_notice(std::chrono::milliseconds timeout)
+{
+    return state_->live->next_player_notice(timeout);
 }
 
 std::optional<reply> connection::next_unmatched_reply(std::chrono::milliseconds timeout)

@@ -61,6 +61,9 @@ struct connection_options
     std::size_t max_unsent = 4096;
     /// Answers to this connection's refs kept for await_reply; beyond it the oldest go.
     std::size_t kept_replies = 4096;
+    /// Player notices (joined, renamed, left) kept for next_player_notice; beyond it the
+    /// oldest go.
+    std::size_t kept_player_notices = 256;
     /// Answers that match none of this connection's refs (to send_text, mostly) kept for
     /// next_unmatched_reply; beyond it the oldest go.
     std::size_t kept_unmatched_replies = 256;
@@ -178,6 +181,13 @@ public:
     /// The oldest answer that matches no ref this connection sent (for send_text), waiting up
     /// to `timeout` for one.
     std::optional<reply> next_unmatched_reply(std::chrono::milliseconds timeout);
+
+    /// The room's players as this connection last heard (the roster sent after its welcome,
+    /// then each notice), this connection's own among them, by id.
+    std::vector<protocol::player> players() const;
+    /// The oldest player notice (another player joined, renamed or left; this one renamed)
+    /// not yet taken, waiting up to `timeout` for one.
+    std::optional<protocol::player_notice> next_player_notice(std::chrono::milliseconds timeout);
 
     /// The oldest snapshot not yet taken, waiting up to `timeout`; null when none came.
     std::shared_ptr<protocol::snapshot const> next_snapshot(std::chrono::milliseconds timeout);

@@ -181,7 +181,8 @@ step step_at(json const& value, std::size_t number)
     json const& object = object_at(value, at);
     static std::set<std::string> const actions{"send",          "send_text",       "expect",
                                                "wait_ticks",    "wait_until_tick", "expect_body",
-                                               "wait_for_body", "close",           "expect_close"};
+                                               "wait_for_body", "close",           "expect_close",
+                                               "expect_player"};
     std::vector<std::string> found;
     for (auto const& [key, item] : object.items())
         if (actions.contains(key))
@@ -253,6 +254,26 @@ step step_at(json const& value, std::size_t number)
         if (body != true && !(body.is_object() && body.empty()))
             inner.fail("write \"close\": true");
         s.action = close_step{};
+    } else if (s.kind == "expect_player") {
+        expect_player_step e;
+        json const& wanted = object_at(body, inner);
+        only_keys(wanted, {"change", "id", "name", "keep"}, inner);
+        if (wanted.contains("change")) {
+            json const& change = wanted["change"];
+            if (!is_substituted(change) && change != "joined" && change != "renamed" && change != "left")
+                (inner / "change").fail("must be \"joined\", \"renamed\" or \"left\", got " + describe(change));
+            e.fields["change"] = change;
+        }
+        if (wanted.contains("id"))
+            e.fields["id"] = number_or_substituted(wanted["id"], inner / "id");
+        if (wanted.contains("name")) {
+            if (!wanted["name"].is_string() && !wanted["name"].is_null())
+                (inner / "name").fail("must be a string, or null for a player without a name");
+            e.fields["name"] = wanted["name"];
+        }
+        if (wanted.contains("keep"))
+            e.keep = keep_at(wanted["keep"], inner / "keep");
+        s.action = std::move(e);
     } else if (s.kind == "expect_close") {
         expect_close_step e;
         only_keys(object_at(body, inner), {"code"}, inner);

@@ -104,9 +104,18 @@ struct expect_close_step
     std::optional<std::uint16_t> code;
 };
 
+/// Wait for the client's next player notice (another player joined, was renamed or left;
+/// this one renamed) not yet taken, and check it.
+struct expect_player_step
+{
+    /// "change", "id", "name" -> the value wanted (variables allowed); a null name: none
+    nlohmann::json fields = nlohmann::json::object();
+    keep_map keep; ///< from "id", "name", "change"
+};
+
 using step_action =
     std::variant<send_step, send_text_step, expect_step, wait_ticks_step, wait_until_tick_step,
-                 expect_body_step, wait_for_body_step, close_step, expect_close_step>;
+                 expect_body_step, wait_for_body_step, close_step, expect_close_step, expect_player_step>;
 
 struct step
 {

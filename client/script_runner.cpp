@@ -458,6 +458,24 @@ private:
         return describe(*info);
     }
 
+    std::string perform(expect_player_step const& e, client_state& c)
+    {
+        json const wanted = vars_.resolve(e.fields);
+        std::string const expected = "a player notice" + (wanted.empty() ? std::string() : " with " + describe_json(wanted));
+        auto const notice = c.link->next_player_notice(options_.timeout);
+        if (!notice)
+            throw step_failed{expected, "none within " + std::to_string(options_.timeout.count()) + " ms"};
+        json got = json::parse(protocol::encode(*notice));
+        got.erase("type");
+        for (auto const& [field, value] : wanted.items()) {
+            json const& have = got.contains(field) ? got[field] : json();
+            if (!same(have, value))
+                throw step_failed{expected, describe_json(got)};
+        }
+        keep(e.keep, got);
+        return describe_json(got);
+    }
+
     void close_all()
     {
         for (auto& [name, c] : clients_)

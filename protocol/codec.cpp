@@ -187,10 +187,23 @@ constexpr auto fields(std::type_identity<snapshot_request>)
                       member("rate", &snapshot_request::rate, above_zero)};
 }
 
+/// A player's name: shown to other players, so bounded and free of control characters (JSON
+/// has already refused invalid UTF-8).
+void player_name(std::string const& name, location const& at)
+{
+    if (name.empty() || name.size() > max_player_name_bytes)
+        at.fail(error_code::bad_value, "must be 1 to " + std::to_string(max_player_name_bytes) +
+                                           " bytes of UTF-8, got " + std::to_string(name.size()));
+    for (unsigned char const c : name)
+        if (c < 0x20 || c == 0x7f)
+            at.fail(error_code::bad_value, "must not hold control characters (found the byte " +
+                                               std::to_string(static_cast<unsigned>(c)) + ")");
+}
+
 constexpr auto fields(std::type_identity<hello>)
 {
     return std::tuple{member("protocol", &hello::protocol, spoken_protocol),
-                      member("name", &hello::name), member("admin_token", &hello::admin_token),
+                      member("name", &hello::name, player_name), member("admin_token", &hello::admin_token),
                       member("snapshots", &hello::snapshots)};
 }
 
@@ -364,6 +377,22 @@ constexpr auto fields(std::type_identity<compact_snapshot>)
                       member("vanished", &compact_snapshot::vanished)};
 }
 
+constexpr auto fields(std::type_identity<player>)
+{
+    return std::tuple{member("id", &player::id), member("name", &player::name, player_name)};
+}
+
+constexpr auto fields(std::type_identity<roster>)
+{
+    return std::tuple{member("players", &roster::players)};
+}
+
+constexpr auto fields(std::type_identity<player_notice>)
+{
+    return std::tuple{member("change", &player_notice::change), member("id", &player_notice::id),
+                      member("name", &player_notice::name, player_name)};
+}
+
 constexpr auto fields(std::type_identity<pong>)
 {
     return std::tuple{member("ref", &pong::ref), member("tick", &pong::tick),
@@ -430,6 +459,13 @@ void check_together(snapshot_request const& request, location const& at)
     if (request.form && *request.form != "full" && *request.form != "compact")
         (at / "form").fail(error_code::bad_value, "must be \"full\" or \"compact\", got " +
                                                       dump(json(shortened(*request.form))));
+}
+
+void check_together(player_notice const& notice, location const& at)
+{
+    if (notice.change != "joined" && notice.change != "renamed" && notice.change != "left")
+        (at / "change").fail(error_code::bad_value, "must be \"joined\", \"renamed\" or \"left\", got " +
+                                                        dump(json(shortened(notice.change))));
 }
 
 void check_together(snapshot_stream const& stream, location const& at)
@@ -1091,6 +1127,14 @@ std::string encode(ack const& message)
     return encode_message(message);
 }
 std::string encode(error const& message)
+{
+    return encode_message(message);
+}
+std::string encode(roster const& message)
+{
+    return encode_message(message);
+}
+std::string encode(player_notice const& message)
 {
     return encode_message(message);
 }

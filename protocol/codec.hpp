@@ -43,6 +43,8 @@ std::string encode(error const& message);
 std::string encode(snapshot const& message);
 std::string encode(pong const& message);
 std::string encode(compact_snapshot const& message);
+std::string encode(roster const& message);
+std::string encode(player_notice const& message);
 /// encode(keyframe(state)), without copying the state's bodies into a message first.
 std::string encode_keyframe(compact_state const& state);
 std::string encode(server_message const& message);

@@ -48,12 +48,17 @@ struct snapshot_request
     bool operator==(snapshot_request const&) const = default;
 };
 
-/// Optional first message: which protocol the client speaks, a name for logs, the admin
-/// token that makes this connection an admin, and the snapshots it wants.
+/// The longest player name, in bytes of UTF-8.
+inline constexpr std::size_t max_player_name_bytes = 64;
+
+/// Optional first message: which protocol the client speaks, the player's name (shown to
+/// the room's other players; a later hello renames), the admin token that makes this
+/// connection an admin, and the snapshots it wants.
 struct hello
 {
     static constexpr std::string_view type = "hello";
     std::optional<int> protocol; ///< must be protocol_version when given
+    /// 1 to max_player_name_bytes bytes, no control characters
     std::optional<std::string> name;
     std::optional<std::string> admin_token; ///< the server's --admin-token; never logged
     std::optional<snapshot_request> snapshots;
@@ -375,6 +380,37 @@ struct compact_snapshot
     bool operator==(compact_snapshot const&) const = default;
 };
 
-using server_message = std::variant<welcome, ack, error, snapshot, pong, compact_snapshot>;
+/// A player of a room: one connection, known by its welcome.client id and the name its
+/// hello gave.
+struct player
+{
+    std::uint64_t id = 0;
+    std::optional<std::string> name; ///< absent until a hello names it
+
+    bool operator==(player const&) const = default;
+};
+
+/// Who is in the room, the receiver too: sent after a client's first welcome.
+struct roster
+{
+    static constexpr std::string_view type = "players";
+    std::vector<player> players; ///< by id
+
+    bool operator==(roster const&) const = default;
+};
+
+/// A player joined, was renamed (a hello with a name) or left: sent to every other client of
+/// the room, and a rename to the renamed one too.
+struct player_notice
+{
+    static constexpr std::string_view type = "player";
+    std::string change; ///< "joined", "renamed" or "left"
+    std::uint64_t id = 0;
+    std::optional<std::string> name;
+
+    bool operator==(player_notice const&) const = default;
+};
+
+using server_message = std::variant<welcome, ack, error, snapshot, pong, compact_snapshot, roster, player_notice>;
 
 } // namespace kugel::protocol

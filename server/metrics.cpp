@@ -216,6 +216,8 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
              [&](room const& r) { return load(r.counters().unswept_fast_bodies); });
     per_room({"kugel_clients", "gauge", "WebSocket clients in a room."},
              [&](room const& r) { return load(r.counters().sessions); });
+    per_room({"kugel_players", "gauge", "Players in a room (a connection each)."},
+             [&](room const& r) { return load(r.counters().players); });
     per_room({"kugel_bodies", "gauge", "Bodies in a room's world."},
              [&](room const& r) { return load(r.counters().bodies); });
     per_room({"kugel_messages_in_total", "counter", "WebSocket frames read from a room's clients."},
@@ -257,6 +259,9 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     per_room({"kugel_stalled_clients_total", "counter",
               "Clients disconnected because a send to them was pending longer than the write-stall bound (they stopped reading)."},
              [&](room const& r) { return load(r.traffic().stalled_clients); });
+    per_room({"kugel_player_notices_merged_total", "counter",
+              "Times a client's unsent player notices were replaced by one roster of the room's players."},
+             [&](room const& r) { return load(r.traffic().player_messages_merged); });
     m.begin({"kugel_commands_rejected_total", "counter",
              "Messages refused with an error, by error code (protocol/PROTOCOL.md)."});
     for (auto const& r : rooms)

@@ -245,8 +245,58 @@ void room::join(std::shared_ptr<websocket_session> session)
         // Counted before the welcome goes out, so a client that has its welcome is counted.
         self->sessions_.push_back({session->client_id(), session});
         self->counters_.sessions = self->sessions_.size();
+        self->counters_.players = self->sessions_.size();
         session->send_reply(self->welcome_for(self->sessions_.back()));
+        session->send_players(self->current_roster());
+        self->tell_players({.change = "joined", .id = session->client_id(), .name = std::nullopt},
+                           session->client_id());
     });
+}
+
+void room::rename(std::shared_ptr<websocket_session> session, std::string name)
+{
+    net::post(strand_, [self = shared_from_this(), session = std::move(session), name = std::move(name)] {
+        for (member& m : self->sessions_)
+            if (m.client_id == session->client_id() && m.name != name) {
+                m.name = name;
+                self->tell_players({.change = "renamed", .id = m.client_id, .name = name}, 0);
+            }
+    });
+}
+
+void room::leave(std::uint64_t client_id)
+{
+    net::post(strand_, [self = shared_from_this(), client_id] {
+        auto const gone = std::find_if(self->sessions_.begin(), self->sessions_.end(),
+                                       [&](member const& m) { return m.client_id == client_id; });
+        if (gone == self->sessions_.end())
+            return; // a snapshot found it ended first, and told the others
+        protocol::player_notice const left{.change = "left", .id = client_id, .name = gone->name};
+        self->sessions_.erase(gone);
+        self->counters_.sessions = self->sessions_.size();
+        self->counters_.players = self->sessions_.size();
+        self->tell_players(left, client_id);
+    });
+}
+
+void room::tell_players(protocol::player_notice const& notice, std::uint64_t except)
+{
+    auto const bytes = std::make_shared<std::string const>(protocol::encode(notice));
+    for (member const& m : sessions_)
+        if (m.client_id != except)
+            if (auto session = m.session.lock())
+                session->send_player_notice(notice, bytes);
+}
+
+protocol::roster room::current_roster() const
+{
+    protocol::roster roster;
+    roster.players.reserve(sessions_.size());
+    for (member const& m : sessions_)
+        roster.players.push_back({m.client_id, m.name});
+    std::sort(roster.players.begin(), roster.players.end(),
+              [](protocol::player const& a, protocol::player const& b) { return a.id < b.id; });
+    return roster;
 }
 
 void room::grant_admin(std::shared_ptr<websocket_session> session)
@@ -761,10 +811,13 @@ void room::send_snapshot()
     audience.reserve(sessions_.size());
     bool any_full = false;
     std::vector<std::uint64_t> chains; // the `every` of each compact client, once each
+    std::vector<protocol::player_notice> left;
     std::erase_if(sessions_, [&](member const& m) {
         auto session = m.session.lock();
-        if (!session)
-            return true; // it ended: it left the room
+        if (!session) { // it ended: it left the room (before its leave() came)
+            left.push_back({.change = "left", .id = m.client_id, .name = m.name});
+            return true;
+        }
         audience.push_back(std::move(session));
         if (!m.compact)
             any_full = true;
@@ -773,6 +826,9 @@ void room::send_snapshot()
         return false;
     });
     counters_.sessions = sessions_.size();
+    counters_.players = sessions_.size();
+    for (protocol::player_notice const& notice : left)
+        tell_players(notice, notice.id);
     if (audience.empty())
         return; // nobody to send it to: nothing to encode
     // Only the copy is made on the tick (about 0.2 ms for 10,000 bodies). Encoding (6 to 9 ms

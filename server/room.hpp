@@ -32,6 +32,7 @@ struct room_counters
     std::atomic<std::uint64_t> late_ticks{0}; ///< ticks dropped because the room fell behind
     std::atomic<std::uint64_t> bodies{0};
     std::atomic<std::uint64_t> sessions{0};
+    std::atomic<std::uint64_t> players{0}; ///< the room's players (one per session, for now)
     std::atomic<std::uint64_t> snapshots{0};  ///< snapshots encoded and sent
     /// Snapshots due while the last was still being encoded: not taken (room::send_snapshot)
     std::atomic<std::uint64_t> snapshots_skipped{0};
@@ -121,6 +122,10 @@ public:
     /// anyone else; the room checks what only it can: whose body a remove names).
     void submit(std::shared_ptr<websocket_session> from, protocol::client_message command,
                 bool admin = false);
+    /// The session's hello gave a name: the room's players are told (player "renamed").
+    void rename(std::shared_ptr<websocket_session> session, std::string name);
+    /// The session ended (its destructor): the other players are told it left.
+    void leave(std::uint64_t client_id);
     /// The session proved itself an admin: it is sent a welcome saying so.
     void grant_admin(std::shared_ptr<websocket_session> session);
     /// The session's hello asked for a snapshot form or rate: from the next snapshot on it
@@ -158,6 +163,10 @@ private:
     /// Replaces the world by `s`'s, fresh: new wire ids for its bodies (the counter goes on),
     /// no spawned bodies, the clock going on from where it stood.
     void replace_world(scene::scene s);
+    /// Sends a player notice to every session but `except`'s (0: to all).
+    void tell_players(protocol::player_notice const& notice, std::uint64_t except);
+    /// The players in the room now, by id.
+    protocol::roster current_roster() const;
     /// What `m` is told in its welcome: the room's, with its id, admin flag and caps.
     std::shared_ptr<std::string const> welcome_for(member const& m) const;
     void step_world();
@@ -249,6 +258,7 @@ private:
     {
         std::uint64_t client_id;
         std::weak_ptr<websocket_session> session; ///< a session leaves when it ends
+        std::optional<std::string> name;          ///< the player's, from its hello
         bool admin = false;
         bool compact = false;    ///< it asked for the compact form
         std::uint64_t every = 1; ///< it takes every n-th of the room's snapshots

@@ -240,6 +240,7 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
             health["rooms"][name] = {{"ticks", r->counters().ticks.load()},
                                      {"bodies", r->counters().bodies.load()},
                                      {"clients", r->counters().sessions.load()},
+                                     {"players", r->counters().players.load()},
                                      {"late_ticks", r->counters().late_ticks.load()},
                                      {"step_faults", r->counters().step_faults.load()}};
             if (auto fault = r->last_fault(); !fault.empty())

@@ -19,6 +19,8 @@ namespace {
 /// deltas, and at most this many bytes of them after the first, before a newer snapshot
 /// replaces them all (and then comes as a keyframe).
 constexpr std::size_t most_pending_snapshots = 4;
+/// Player messages unsent before they are replaced by one roster.
+constexpr std::size_t most_player_messages = 16;
 constexpr std::size_t most_pending_delta_bytes = 64 * 1024;
 
 std::optional<std::uint64_t> ref_of(protocol::client_message const& message)
@@ -91,8 +93,10 @@ websocket_session::websocket_session(tcp::socket&& socket, std::shared_ptr<room>
 
 websocket_session::~websocket_session()
 {
-    if (accepted_)
+    if (accepted_) {
         spdlog::info("client {} ({}) left room '{}'", client_id_, peer_, room_->name());
+        room_->leave(client_id_);
+    }
 }
 
 void websocket_session::run(http::request<http::string_body> request)
@@ -196,6 +200,13 @@ void websocket_session::handle_message(std::string_view text)
         if (hello->name && !named_) // a flood of hellos logs one line
             spdlog::info("client {} ({}) is '{}'", client_id_, peer_, printable(*hello->name));
         named_ = named_ || hello->name.has_value();
+        if (hello->name) {
+            // Told to every player in the room, so counted as a command: a flood of renames
+            // is slowed, not multiplied by the room's size.
+            if (!take_command_token())
+                return refuse_rate_limited(std::nullopt);
+            room_->rename(shared_from_this(), *hello->name);
+        }
         if (hello->admin_token)
             handle_admin_token(*hello->admin_token);
         if (hello->snapshots) {
@@ -288,6 +299,51 @@ void websocket_session::send_notice(std::shared_ptr<std::string const> bytes)
     });
 }
 
+void websocket_session::send_players(protocol::roster roster)
+{
+    net::post(ws_.get_executor(), [self = shared_from_this(), roster = std::move(roster)] {
+        self->players_.clear();
+        for (protocol::player const& p : roster.players)
+            self->players_.emplace(p.id, p.name);
+        self->queue_player_message(std::make_shared<std::string const>(protocol::encode(roster)));
+    });
+}
+
+void websocket_session::send_player_notice(protocol::player_notice notice, std::shared_ptr<std::string const> bytes)
+{
+    net::post(ws_.get_executor(), [self = shared_from_this(), notice = std::move(notice), bytes = std::move(bytes)]() mutable {
+        if (notice.change == "left")
+            self->players_.erase(notice.id);
+        else
+            self->players_.insert_or_assign(notice.id, notice.name);
+        self->queue_player_message(std::move(bytes));
+    });
+}
+
+// Player messages wait with the replies. Past most_player_messages unsent, they are taken out
+// and one roster of the players they add up to goes in their place: a client that reads gets
+// the same picture, and a crowd joining at once costs each client one message, not one per
+// player.
+void websocket_session::queue_player_message(std::shared_ptr<std::string const> bytes)
+{
+    if (closing_)
+        return;
+    if (queued_player_messages_.size() >= most_player_messages) {
+        std::erase_if(replies_, [&](std::shared_ptr<std::string const> const& r) {
+            return std::find(queued_player_messages_.begin(), queued_player_messages_.end(), r.get()) !=
+                   queued_player_messages_.end();
+        });
+        queued_player_messages_.clear();
+        protocol::roster roster;
+        for (auto const& [id, name] : players_)
+            roster.players.push_back({id, name});
+        bytes = std::make_shared<std::string const>(protocol::encode(roster));
+        bump(room_->traffic().player_messages_merged);
+    }
+    queued_player_messages_.push_back(bytes.get());
+    queue_reply(std::move(bytes));
+}
+
 void websocket_session::send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot)
 {
     net::post(ws_.get_executor(), [self = shared_from_this(), snapshot = std::move(snapshot)]() mutable {
@@ -375,6 +431,7 @@ void websocket_session::write_next()
     if (!replies_.empty()) {
         in_flight_ = std::move(replies_.front());
         replies_.pop_front();
+        std::erase(queued_player_messages_, in_flight_.get());
         bump(traffic.replies_out);
     } else if (!pending_snapshots_.empty()) {
         auto [bytes, form] = bytes_of(*pending_snapshots_.front());

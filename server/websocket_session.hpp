@@ -4,9 +4,13 @@
 #include "network.hpp"
 #include "options.hpp"
 
+#include "protocol/messages.hpp"
+
 #include <chrono>
 #include <cstdint>
 #include <deque>
+#include <map>
+#include <vector>
 #include <memory>
 #include <optional>
 #include <string>
@@ -44,6 +48,12 @@ public:
     void send_reply(std::shared_ptr<std::string const> bytes);
     /// Queues a message that answers no command (a welcome sent again), like a reply.
     void send_notice(std::shared_ptr<std::string const> bytes);
+    /// Queues the room's players (sent after the welcome) or a notice that one joined, was
+    /// renamed or left, like a reply. The session keeps the roster they add up to: when many
+    /// notices wait unsent (a crowd joining at once), they are replaced by that one roster,
+    /// so a crowd cannot fill the reply queue of a client that reads.
+    void send_players(protocol::roster roster);
+    void send_player_notice(protocol::player_notice notice, std::shared_ptr<std::string const> bytes);
     /// Offers a snapshot; replaces any snapshot not yet sent. Which of its forms is sent is
     /// chosen when it is written (encoded_snapshot).
     void send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
@@ -68,6 +78,7 @@ private:
     void refuse_rate_limited(std::optional<std::uint64_t> ref);
 
     void queue_reply(std::shared_ptr<std::string const> bytes);
+    void queue_player_message(std::shared_ptr<std::string const> bytes);
     void queue_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
     /// The bytes to send of a snapshot: the full form, a delta against what the client
     /// holds, or the keyframe.
@@ -87,6 +98,11 @@ private:
     std::string peer_; ///< address:port, for logs
 
     std::deque<std::shared_ptr<std::string const>> replies_;
+    /// The room's players as the messages queued for this client add up to, and which of
+    /// replies_ are player messages (at most most_player_messages; more are replaced by one
+    /// roster).
+    std::map<std::uint64_t, std::optional<std::string>> players_;
+    std::vector<std::string const*> queued_player_messages_;
     /// Snapshots not yet sent: the newest alone, or, on the compact form, a short run of
     /// deltas each against the one before (a client a little behind gets them rather than a
     /// keyframe many times their size, which would put it further behind).

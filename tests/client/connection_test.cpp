@@ -89,6 +89,38 @@ TEST(Connection, TheNewestWelcomeHolds)
     EXPECT_TRUE(c.welcome().admin);
 }
 
+// players() is the room as the roster and the notices add up to; next_player_notice hands
+// each notice out once, in order.
+TEST(Connection, KnowsTheRoomsPlayersAndHandsOutEachNotice)
+{
+    running_server s;
+    connection ann(s.url("still"), {.name = "ann"});
+    auto const own = ann.next_player_notice(10s); // a renamed player hears its own name
+    ASSERT_TRUE(own);
+    EXPECT_EQ(*own, (protocol::player_notice{.change = "renamed", .id = ann.welcome().client, .name = "ann"}));
+    std::uint64_t bob_id = 0;
+    {
+        connection bob(s.url("still"), {.name = "bob"});
+        bob_id = bob.welcome().client;
+        auto const joined = ann.next_player_notice(10s);
+        ASSERT_TRUE(joined);
+        EXPECT_EQ(*joined, (protocol::player_notice{.change = "joined", .id = bob_id, .name = std::nullopt}));
+        auto const renamed = ann.next_player_notice(10s);
+        ASSERT_TRUE(renamed);
+        EXPECT_EQ(renamed->name, "bob");
+        EXPECT_EQ(ann.players(), (std::vector<protocol::player>{{ann.welcome().client, "ann"}, {bob_id, "bob"}}));
+        auto const own_bob = bob.next_player_notice(10s); // bob's own name, heard by bob
+        ASSERT_TRUE(own_bob);
+        EXPECT_EQ(own_bob->name, "bob");
+        EXPECT_EQ(bob.players(), ann.players()); // bob's roster named ann, and his own rename named him
+    }
+    auto const left = ann.next_player_notice(10s);
+    ASSERT_TRUE(left);
+    EXPECT_EQ(*left, (protocol::player_notice{.change = "left", .id = bob_id, .name = "bob"}));
+    EXPECT_EQ(ann.players(), (std::vector<protocol::player>{{ann.welcome().client, "ann"}}));
+    EXPECT_FALSE(ann.next_player_notice(100ms)); // each was handed out once
+}
+
 TEST(Connection, SendGivesFreshRefsAndAwaitReplyTheirAnswers)
 {
     running_server s;

@@ -40,12 +40,13 @@ TEST(Script, ReadsEveryKindOfStep)
         {"client": "other", "expect_body": {"id": "$ball", "position": [0, null, "= 1 - $g"], "tolerance": 1e-9}},
         {"wait_for_body": {"id": "$ball", "exists": false, "max_ticks": 60}},
         {"close": true},
-        {"expect_close": {"code": 1009}}
+        {"expect_close": {"code": 1009}},
+        {"client": "other", "expect_player": {"change": "left", "id": "$ball", "name": null, "keep": {"gone": "id"}}}
       ]})");
     EXPECT_EQ(s.description, "all of them");
     EXPECT_EQ(s.server, (std::vector<std::string>{"--room", "lab=lab.json"}));
     EXPECT_EQ(s.variables.at("g"), 9.81);
-    ASSERT_EQ(s.steps.size(), 10U);
+    ASSERT_EQ(s.steps.size(), 11U);
     EXPECT_EQ(s.steps[0].kind, "send");
     EXPECT_EQ(std::get<send_step>(s.steps[0].action).label, "drop");
     EXPECT_EQ(std::get<expect_step>(s.steps[1].action).keep.at("ball"), "id");
@@ -57,6 +58,9 @@ TEST(Script, ReadsEveryKindOfStep)
     EXPECT_TRUE((*body.position)[1].is_null());
     EXPECT_FALSE(std::get<wait_for_body_step>(s.steps[7].action).body.exists);
     EXPECT_EQ(*std::get<expect_close_step>(s.steps[9].action).code, 1009);
+    auto const& player = std::get<expect_player_step>(s.steps[10].action);
+    EXPECT_EQ(player.fields, (nlohmann::json{{"change", "left"}, {"id", "$ball"}, {"name", nullptr}}));
+    EXPECT_EQ(player.keep.at("gone"), "id");
     EXPECT_EQ(label_of(s.steps[0]), "step 1 \"drop\" (send, client main)");
 }
 
@@ -76,6 +80,13 @@ TEST(Script, RefusalsNameTheStepAndTheField)
               std::string::npos);
     EXPECT_NE(refusal(one_step(R"({"send": {"ref": 3}})")).find("\"type\""), std::string::npos);
     EXPECT_NE(refusal(one_step(R"({"expect": {}})")).find("say what answer is expected"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_player": {"change": "kicked"}})"))
+                  .find(R"(step 1 (expect_player): /expect_player/change: must be "joined", "renamed" or "left")"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_player": {"name": 7}})")).find("/expect_player/name: must be a string"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_player": {"who": 7}})")).find("unknown field \"who\""),
               std::string::npos);
     EXPECT_NE(refusal(one_step(R"({"expect": {"type": "welcome"}})")).find("/expect/type"),
               std::string::npos);

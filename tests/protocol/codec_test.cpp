@@ -358,6 +358,23 @@ std::vector<bad_case> bad_client_messages()
                  error_code::wrong_type, R"(/impulse/1: must be a number, got string "1")", 2},
         bad_case{"name_not_a_string", R"({"type": "hello", "name": 42})", error_code::wrong_type,
                  "/name: must be a string, got number 42"},
+        // A player's name is shown to every other player: bounded, no control characters.
+        bad_case{"name_empty", R"({"type": "hello", "name": ""})", error_code::bad_value,
+                 "/name: must be 1 to 64 bytes of UTF-8, got 0"},
+        bad_case{"name_too_long", R"({"type": "hello", "name": ")" + std::string(65, 'x') + R"("})",
+                 error_code::bad_value, "/name: must be 1 to 64 bytes of UTF-8, got 65"},
+        bad_case{"name_of_33_two_byte_letters", R"({"type": "hello", "name": ")" + [] {
+                     std::string s;
+                     for (int i = 0; i < 33; ++i)
+                         s += "\u00e9";
+                     return s;
+                 }() + R"("})",
+                 error_code::bad_value, "/name: must be 1 to 64 bytes of UTF-8, got 66", std::nullopt,
+                 false}, // a schema's maxLength counts characters (33)
+        bad_case{"name_with_a_newline", R"({"type": "hello", "name": "ann\nbob"})", error_code::bad_value,
+                 "/name: must not hold control characters (found the byte 10)"},
+        bad_case{"name_with_a_delete", R"({"type": "hello", "name": "ann\u007f"})", error_code::bad_value,
+                 "/name: must not hold control characters (found the byte 127)"},
         bad_case{
             "null_velocity",
             R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "velocity": null, "radius": 1, "mass": 1}})",
@@ -489,7 +506,11 @@ TEST(DecodeServerMessage, RefusesWhatAClientCouldMisread)
               R"(bad_value /code: unknown error code string "teapot")");
     EXPECT_EQ(
         code_of(R"({"type": "ping", "ref": 1})"),
-        R"(unknown_type /type: unknown message type "ping" (known: welcome, ack, error, snapshot, pong))");
+        R"(unknown_type /type: unknown message type "ping" (known: welcome, ack, error, snapshot, pong, players, player))");
+    EXPECT_EQ(code_of(R"({"type": "player", "change": "kicked", "id": 3})"),
+              R"(bad_value /change: must be "joined", "renamed" or "left", got "kicked")");
+    EXPECT_EQ(code_of(R"({"type": "players", "players": [{"id": 1, "name": ""}]})"),
+              "bad_value /players/0/name: must be 1 to 64 bytes of UTF-8, got 0");
 }
 
 // Error codes ---------------------------------------------------------------------------

@@ -201,6 +201,11 @@ std::vector<hostile_case> catalogue()
         {"impulse without id", R"({"type":"impulse","ref":48,"impulse":[1,0,0]})", refused("missing_field", "/id", 48)},
         {"remove without ref", R"({"type":"remove","id":1})", refused("missing_field", "/ref")},
         {"name as a number", R"({"type":"hello","name":7})", refused("wrong_type", "/name")},
+        // A player's name is shown to every other player of the room.
+        {"name of 65 bytes", R"({"type":"hello","name":")" + std::string(65, 'n') + R"("})", refused("bad_value", "/name")},
+        {"name with a newline", R"({"type":"hello","name":"ann\nadmin: yes"})", refused("bad_value", "/name")},
+        {"name with an escape", R"({"type":"hello","name":"\u001b[31mred"})", refused("bad_value", "/name")},
+        {"empty name", R"({"type":"hello","name":""})", refused("bad_value", "/name")},
 
         // Huge arrays and deep nesting. Nothing may nest deeper than 32 levels: deeper text
         // is refused before it becomes a document (a deep value copied inside the parser

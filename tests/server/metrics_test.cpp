@@ -152,6 +152,10 @@ TEST(Metrics, CountersMoveByExactlyTheTrafficSent)
     while (big.read()) {
     }
     ASSERT_EQ(big.close_code(), 1009);
+    // The first client is told big joined and left: player notices, counted as replies.
+    c.hear_players();
+    for (json notice = c.next("player"); notice.at("change") != "left"; notice = c.next("player")) {
+    }
 
     // Beast sends the 1009 close before it hands the read's error to the session, which
     // only then counts the frame: the client can see the close first, so wait for the count.
@@ -172,8 +176,9 @@ TEST(Metrics, CountersMoveByExactlyTheTrafficSent)
     EXPECT_EQ(moved(rejected("message_too_large")), 1);
     EXPECT_EQ(moved(rejected("bad_value")), 0);
     EXPECT_EQ(moved(R"(kugel_messages_in_total{room="lab"})"), 3 + 2 + 6 + 1);
-    // Two welcomes and the eleven answers; every snapshot the clients read was counted.
-    EXPECT_EQ(moved(R"(kugel_messages_out_total{room="lab",kind="reply"})"), 2 + 11);
+    // Two welcomes, two rosters, big's joined and left notices to the first client, and the
+    // eleven answers; every snapshot the clients read was counted.
+    EXPECT_EQ(moved(R"(kugel_messages_out_total{room="lab",kind="reply"})"), 2 + 2 + 2 + 11);
     EXPECT_GE(moved(R"(kugel_messages_out_total{room="lab",kind="snapshot"})"), snapshots);
     EXPECT_GT(moved(R"(kugel_bytes_out_total{room="lab"})"), 0);
     EXPECT_EQ(after.at(R"(kugel_bodies{room="lab"})"), 1);

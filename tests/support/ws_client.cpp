@@ -49,6 +49,18 @@ void ws_client::send_binary(std::string const& bytes)
 
 std::optional<std::string> ws_client::read(std::chrono::milliseconds timeout)
 {
+    auto const deadline = clock::now() + timeout;
+    for (;;) {
+        auto const left = std::chrono::duration_cast<std::chrono::milliseconds>(deadline - clock::now());
+        auto text = read_any(std::max(left, std::chrono::milliseconds(0)));
+        if (!text || hears_players_ || !(text->starts_with(R"({"type":"players",)") ||
+                                         text->starts_with(R"({"type":"player",)")))
+            return text;
+    }
+}
+
+std::optional<std::string> ws_client::read_any(std::chrono::milliseconds timeout)
+{
     connection& c = *c_;
     if (c.closed)
         return std::nullopt;

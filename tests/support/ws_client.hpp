@@ -37,8 +37,13 @@ public:
 
     /// The next message, or nullopt when none came within `timeout` or the connection
     /// ended (then closed() is true). A read still pending at the timeout stays pending
-    /// for the next call, so no message is lost.
+    /// for the next call, so no message is lost. The room's player messages (`players`,
+    /// `player`) are passed over unless hear_players() was called: most tests are about
+    /// other things, and a player joining would interleave with what they read.
     std::optional<std::string> read(std::chrono::milliseconds timeout = std::chrono::seconds(10));
+
+    /// From now on read() returns the player messages too.
+    void hear_players() { hears_players_ = true; }
 
     /// The next message parsed; throws when none comes in time.
     nlohmann::json read_json(std::chrono::milliseconds timeout = std::chrono::seconds(10));
@@ -53,8 +58,11 @@ public:
     std::uint16_t close_code() const;
 
 private:
+    std::optional<std::string> read_any(std::chrono::milliseconds timeout);
+
     struct connection;
     std::unique_ptr<connection> c_;
+    bool hears_players_ = false;
 };
 
 } // namespace kugel::test_support
