@@ -194,8 +194,8 @@ void player_name(std::string const& name, location const& at)
     if (name.empty() || name.size() > max_player_name_bytes)
         at.fail(error_code::bad_value, "must be 1 to " + std::to_string(max_player_name_bytes) +
                                            " bytes of UTF-8, got " + std::to_string(name.size()));
-    for (unsigned char const c : name)
-        if (c < 0x20 || c == 0x7f)
+    for (char const ch : name)
+        if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
             at.fail(error_code::bad_value, "must not hold control characters (found the byte " +
                                                std::to_string(static_cast<unsigned>(c)) + ")");
 }

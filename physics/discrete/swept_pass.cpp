@@ -182,7 +182,10 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
         //    again. Past a few rounds, every sphere is.
         bool drawn = false;
         if (!every_sphere && !capped) {
-            for (auto const& [k, until, path] : sw.events->continuous.segments) {
+            for (auto const& segment : sw.events->continuous.segments) {
+                std::uint32_t const k = segment.body;
+                double const until = segment.until;
+                body_path const& path = segment.path;
                 if (sw.events->continuous.events_of[k] == 0)
                     continue; // its one path, whose box was searched before the events
                 double const r = sw.radius[k];

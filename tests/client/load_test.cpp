@@ -101,13 +101,7 @@ TEST(Load, ChurnReconnectsClientsInTurnAndEveryConnectionSeesSnapshots)
 /// about 170 bytes a body), and a 500 ms write-stall bound.
 server::server_options lattice_room(int count)
 {
-    nlohmann::json scene = test_support::still_scene();
-    scene["generators"] = nlohmann::json::array({{{"count", count},
-                                                  {"placement", "lattice"},
-                                                  {"radius", 0.05},
-                                                  {"mass", 1.0},
-                                                  {"max_speed", 0.0},
-                                                  {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
+    nlohmann::json const scene = test_support::still_scene(count);
     server::server_options o;
     o.rooms = {{"lattice", test_support::write_scene(std::filesystem::path(testing::TempDir()) /
                                                          ("kugel_load_test_lattice_" +

@@ -83,18 +83,7 @@ fs::path write_scene(std::string const& name, json const& scene)
     return test_support::write_scene(fs::path(testing::TempDir()) / ("kugel_metrics_test_" + name + ".json"), scene);
 }
 
-json still_scene(int generated = 0)
-{
-    json scene = test_support::still_scene();
-    if (generated > 0)
-        scene["generators"] = json::array({{{"count", generated},
-                                            {"placement", "lattice"},
-                                            {"radius", 0.05},
-                                            {"mass", 1.0},
-                                            {"max_speed", 0.0},
-                                            {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
-    return scene;
-}
+json still_scene(int generated = 0) { return test_support::still_scene(generated); }
 
 server_options lab(int generated = 0)
 {

@@ -31,16 +31,9 @@ using test_support::ws_client;
 
 server_options one_room(std::string const& name, int generated = 0)
 {
-    json scene = test_support::still_scene();
-    if (generated > 0)
-        scene["generators"] = json::array({{{"count", generated},
-                                            {"placement", "lattice"},
-                                            {"radius", 0.05},
-                                            {"mass", 1.0},
-                                            {"max_speed", 0.0},
-                                            {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
     server_options o;
-    o.rooms.push_back({"play", test_support::write_scene(testing::TempDir() + "kugel_players_" + name + ".json", scene)});
+    o.rooms.push_back({"play", test_support::write_scene(testing::TempDir() + "kugel_players_" + name + ".json",
+                                                         test_support::still_scene(generated))});
     return o;
 }
 

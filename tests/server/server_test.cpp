@@ -415,14 +415,8 @@ TEST(Server, CommandsBeyondTheRateLimitAreRefusedWithRateLimited)
 /// socket buffers within a few snapshots.
 json crowded_scene()
 {
-    json scene = still_scene();
+    json scene = test_support::still_scene(2000);
     scene["name"] = "crowded";
-    scene["generators"] = json::array({{{"count", 2000},
-                                        {"placement", "lattice"},
-                                        {"radius", 0.05},
-                                        {"mass", 1.0},
-                                        {"max_speed", 0.0},
-                                        {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
     return scene;
 }
 

@@ -24,6 +24,20 @@ inline nlohmann::json still_scene()
             {"bodies", nlohmann::json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}}})}};
 }
 
+/// The still scene and `generated` more spheres (r = 0.05 m, 1 kg) at rest on a lattice.
+inline nlohmann::json still_scene(int generated)
+{
+    nlohmann::json scene = still_scene();
+    if (generated > 0)
+        scene["generators"] = nlohmann::json::array({{{"count", generated},
+                                                      {"placement", "lattice"},
+                                                      {"radius", 0.05},
+                                                      {"mass", 1.0},
+                                                      {"max_speed", 0.0},
+                                                      {"region", {{"min", {-9, -9, -9}}, {"max", {9, 9, 9}}}}}});
+    return scene;
+}
+
 /// A scene that differs from the still scene in every way a welcome shows: gravity, a
 /// smaller box, another dt and integrator, two bodies.
 inline nlohmann::json drop_scene()
