@@ -1,6 +1,6 @@
 // The heads-up display: connection state, room (and a picker when the server hosts several),
 // tick, bodies, snapshots per second, bytes received per second and the snapshot form,
-// round trip, server tick time, frame rate; the colour
+// round trip, server tick time, frame rate, the room's players; the colour
 // legend; and the server's errors as readable messages.
 import { charge_stops, speed_stops } from './colour_scale.js';
 
@@ -48,6 +48,7 @@ export class Hud {
     this.rtt = $('hud-rtt');
     this.tick_time = $('hud-tick-time');
     this.fps = $('hud-fps');
+    this.players = $('hud-players');
     this.messages = $('messages');
     this.legend_title = $('legend-title');
     this.legend_bar = $('legend-bar');
@@ -82,6 +83,13 @@ export class Hud {
 
   set_scene(name) {
     this.scene.textContent = name;
+  }
+
+  /** The room's players: how many, and each by name ("player 7" until named), this page as "you". */
+  set_players(players, me) {
+    const names = players.map((p) => (p.id === me ? 'you' : (p.name ?? `player ${p.id}`)));
+    this.players.textContent = players.length === 0 ? '–' : `${players.length}: ${names.join(', ')}`;
+    this.players.title = this.players.textContent;
   }
 
   /**

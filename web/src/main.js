@@ -55,6 +55,8 @@ const state = {
   frames: 0, // frames drawn with bodies in them
   welcomes: 0,
   paused: false, // an admin paused the room: snapshots keep coming, time stands still
+  me: null, // this page's player id: its welcome's client
+  players: [], // the room's players, by id: {id, name} (name null until its hello names it)
   acks: [], // the last few: {ref, tick, id, command}
   errors: [], // the last few: {ref, code, message, command}
 };
@@ -121,6 +123,18 @@ function on_message(message, snapshot) {
     case 'pong':
       if (typeof message.tick_ms === 'number') state.tick_ms = message.tick_ms;
       break;
+    case 'players':
+      state.players = message.players.map((p) => ({ id: p.id, name: p.name ?? null }));
+      hud.set_players(state.players, state.me);
+      break;
+    case 'player':
+      state.players = state.players.filter((p) => p.id !== message.id);
+      if (message.change !== 'left') {
+        state.players.push({ id: message.id, name: message.name ?? null });
+        state.players.sort((a, b) => a.id - b.id);
+      }
+      hud.set_players(state.players, state.me);
+      break;
     default:
       break; // later protocol versions may add messages: ignored
   }
@@ -141,6 +155,7 @@ function playback_clock(message) {
 
 function on_welcome(message) {
   state.welcomes++;
+  state.me = message.client;
   state.snapshots = message.snapshots ?? null;
   state.room_snapshot_rate = message.snapshot_rate;
   state.tick_rate = message.tick_rate;

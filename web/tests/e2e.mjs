@@ -247,6 +247,20 @@ test('the page loads, connects and shows the world in its HUD: bodies and an adv
   assert.ok(await page.locator('#room-picker').isVisible(), 'a room picker when the server hosts several rooms');
 });
 
+test('the HUD lists the room\'s players: a second page joining shows on the first, and leaving goes', async () => {
+  await wait_for('the HUD to list this page', (kugel) => kugel.state.me !== null && kugel.state.players.some((p) => p.id === kugel.state.me));
+  const before = (await state()).players.length;
+  const second = await browser.newPage({ viewport: { width: 320, height: 240 } });
+  await second.goto(`http://127.0.0.1:${server.port}/`);
+  await second.waitForFunction(() => window.kugel?.state.me !== null && window.kugel?.state.connection === 'connected');
+  const second_id = await second.evaluate(() => window.kugel.state.me);
+  await wait_for('the second page in the first page\'s players', (kugel, id) => kugel.state.players.some((p) => p.id === id && p.name === 'kugel page'), second_id);
+  assert.equal((await state()).players.length, before + 1);
+  assert.match(await page.locator('#hud-players').textContent(), new RegExp(`^${before + 1}: .*you.*kugel page`));
+  await second.close();
+  await wait_for('the second page gone from the first page\'s players', (kugel, id) => !kugel.state.players.some((p) => p.id === id), second_id);
+});
+
 test('the HUD shows the server\'s tick time, which its pongs carry', async () => {
   // What the server answers a ping, read on a socket of the test's own: if the HUD shows no
   // tick time, this says whether the server sent none or the page did not show it.
