@@ -98,7 +98,7 @@ public:
         if (ec)
             return fail_to_connect("WebSocket handshake with " + to_string(url_) +
                                    " failed: " + ec.message());
-        if (!options_.name.empty() || options_.snapshots) {
+        if (!options_.name.empty() || options_.snapshots || !options_.players) {
             {
                 std::lock_guard lock(mutex_);
                 ++unsent_; // on_write counts every message down
@@ -107,6 +107,8 @@ public:
             if (!options_.name.empty())
                 hello.name = options_.name;
             hello.snapshots = options_.snapshots;
+            if (!options_.players)
+                hello.players = false;
             queue_write(std::make_shared<std::string const>(protocol::encode(hello)));
         }
         do_read();

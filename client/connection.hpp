@@ -61,6 +61,10 @@ struct connection_options
     std::size_t max_unsent = 4096;
     /// Answers to this connection's refs kept for await_reply; beyond it the oldest go.
     std::size_t kept_replies = 4096;
+    /// false: the hello asks the server for no player messages (players() stays as the roster
+    /// after the welcome; no notices come): for load generators, whose thousand clients would
+    /// otherwise each be told of every other's coming and going.
+    bool players = true;
     /// Player notices (joined, renamed, left) kept for next_player_notice; beyond it the
     /// oldest go.
     std::size_t kept_player_notices = 256;

@@ -308,6 +308,7 @@ connection_options load_connection_options(std::size_t number,
 {
     connection_options o;
     o.name = "kugel-client load " + std::to_string(number);
+    o.players = false; // a thousand load clients told of each other's churn would measure that
     o.snapshot_ticks_only = true; // counted on the I/O thread; nobody takes them
     o.snapshots = snapshots;
     o.kept_replies = 64;  // only spawn answers and the last command's are looked at, at once

@@ -204,7 +204,7 @@ constexpr auto fields(std::type_identity<hello>)
 {
     return std::tuple{member("protocol", &hello::protocol, spoken_protocol),
                       member("name", &hello::name, player_name), member("admin_token", &hello::admin_token),
-                      member("snapshots", &hello::snapshots)};
+                      member("snapshots", &hello::snapshots), member("players", &hello::players)};
 }
 
 constexpr auto fields(std::type_identity<body_spec>)

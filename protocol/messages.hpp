@@ -62,6 +62,10 @@ struct hello
     std::optional<std::string> name;
     std::optional<std::string> admin_token; ///< the server's --admin-token; never logged
     std::optional<snapshot_request> snapshots;
+    /// false: send this connection no player messages (a load generator, a bot that needs no
+    /// presence); true: send them again, starting with the roster. Absent keeps what it was
+    /// (every connection starts hearing them).
+    std::optional<bool> players;
 
     bool operator==(hello const&) const = default;
 };

@@ -247,7 +247,7 @@ void room::join(std::shared_ptr<websocket_session> session)
         self->counters_.sessions = self->sessions_.size();
         self->counters_.players = self->sessions_.size();
         session->send_reply(self->welcome_for(self->sessions_.back()));
-        session->send_players(self->current_roster());
+        session->send_players(share(protocol::encode(self->current_roster())));
         self->tell_players({.change = "joined", .id = session->client_id(), .name = std::nullopt},
                            session->client_id());
     });
@@ -260,6 +260,27 @@ void room::rename(std::shared_ptr<websocket_session> session, std::string name)
             if (m.client_id == session->client_id() && m.name != name) {
                 m.name = name;
                 self->tell_players({.change = "renamed", .id = m.client_id, .name = name}, 0);
+            }
+    });
+}
+
+void room::send_roster(std::shared_ptr<websocket_session> session)
+{
+    net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
+        for (member const& m : self->sessions_)
+            if (m.client_id == session->client_id() && m.hears_players)
+                session->send_players(share(protocol::encode(self->current_roster())));
+    });
+}
+
+void room::hear_players(std::shared_ptr<websocket_session> session, bool hears)
+{
+    net::post(strand_, [self = shared_from_this(), session = std::move(session), hears] {
+        for (member& m : self->sessions_)
+            if (m.client_id == session->client_id() && m.hears_players != hears) {
+                m.hears_players = hears;
+                if (hears)
+                    session->send_players(share(protocol::encode(self->current_roster())));
             }
     });
 }
@@ -283,9 +304,9 @@ void room::tell_players(protocol::player_notice const& notice, std::uint64_t exc
 {
     auto const bytes = std::make_shared<std::string const>(protocol::encode(notice));
     for (member const& m : sessions_)
-        if (m.client_id != except)
+        if (m.client_id != except && m.hears_players)
             if (auto session = m.session.lock())
-                session->send_player_notice(notice, bytes);
+                session->send_player_notice(bytes);
 }
 
 protocol::roster room::current_roster() const

@@ -124,6 +124,11 @@ public:
                 bool admin = false);
     /// The session's hello gave a name: the room's players are told (player "renamed").
     void rename(std::shared_ptr<websocket_session> session, std::string name);
+    /// Sends the session the room's players now (it had too many notices unsent).
+    void send_roster(std::shared_ptr<websocket_session> session);
+    /// The session's hello said whether it wants player messages; turned on again, it is sent
+    /// the roster.
+    void hear_players(std::shared_ptr<websocket_session> session, bool hears);
     /// The session ended (its destructor): the other players are told it left.
     void leave(std::uint64_t client_id);
     /// The session proved itself an admin: it is sent a welcome saying so.
@@ -259,6 +264,7 @@ private:
         std::uint64_t client_id;
         std::weak_ptr<websocket_session> session; ///< a session leaves when it ends
         std::optional<std::string> name;          ///< the player's, from its hello
+        bool hears_players = true;                ///< it is sent player messages
         bool admin = false;
         bool compact = false;    ///< it asked for the compact form
         std::uint64_t every = 1; ///< it takes every n-th of the room's snapshots

@@ -207,6 +207,8 @@ void websocket_session::handle_message(std::string_view text)
                 return refuse_rate_limited(std::nullopt);
             room_->rename(shared_from_this(), *hello->name);
         }
+        if (hello->players)
+            room_->hear_players(shared_from_this(), *hello->players);
         if (hello->admin_token)
             handle_admin_token(*hello->admin_token);
         if (hello->snapshots) {
@@ -299,49 +301,47 @@ void websocket_session::send_notice(std::shared_ptr<std::string const> bytes)
     });
 }
 
-void websocket_session::send_players(protocol::roster roster)
+void websocket_session::send_players(std::shared_ptr<std::string const> roster)
 {
-    net::post(ws_.get_executor(), [self = shared_from_this(), roster = std::move(roster)] {
-        self->players_.clear();
-        for (protocol::player const& p : roster.players)
-            self->players_.emplace(p.id, p.name);
-        self->queue_player_message(std::make_shared<std::string const>(protocol::encode(roster)));
+    net::post(ws_.get_executor(), [self = shared_from_this(), roster = std::move(roster)]() mutable {
+        if (self->closing_)
+            return;
+        self->drop_queued_player_messages(); // the roster says what they added up to
+        self->roster_asked_ = false;
+        self->queued_player_messages_.push_back(roster.get());
+        self->queue_reply(std::move(roster));
     });
 }
 
-void websocket_session::send_player_notice(protocol::player_notice notice, std::shared_ptr<std::string const> bytes)
+// Player notices wait with the replies. Past most_player_messages unsent, they are dropped and
+// the room is asked for its roster, which comes after every notice it sent before (the room
+// posts both from its strand, in order) and says what they added up to; notices that come
+// while it is on its way are in it or come after it. A client that reads gets the same
+// picture, and a crowd joining at once costs each client one message, not one per player.
+void websocket_session::send_player_notice(std::shared_ptr<std::string const> notice)
 {
-    net::post(ws_.get_executor(), [self = shared_from_this(), notice = std::move(notice), bytes = std::move(bytes)]() mutable {
-        if (notice.change == "left")
-            self->players_.erase(notice.id);
-        else
-            self->players_.insert_or_assign(notice.id, notice.name);
-        self->queue_player_message(std::move(bytes));
+    net::post(ws_.get_executor(), [self = shared_from_this(), notice = std::move(notice)]() mutable {
+        if (self->closing_ || self->roster_asked_)
+            return;
+        if (self->queued_player_messages_.size() >= most_player_messages) {
+            self->drop_queued_player_messages();
+            self->roster_asked_ = true;
+            self->room_->send_roster(self);
+            bump(self->room_->traffic().player_messages_merged);
+            return;
+        }
+        self->queued_player_messages_.push_back(notice.get());
+        self->queue_reply(std::move(notice));
     });
 }
 
-// Player messages wait with the replies. Past most_player_messages unsent, they are taken out
-// and one roster of the players they add up to goes in their place: a client that reads gets
-// the same picture, and a crowd joining at once costs each client one message, not one per
-// player.
-void websocket_session::queue_player_message(std::shared_ptr<std::string const> bytes)
+void websocket_session::drop_queued_player_messages()
 {
-    if (closing_)
-        return;
-    if (queued_player_messages_.size() >= most_player_messages) {
-        std::erase_if(replies_, [&](std::shared_ptr<std::string const> const& r) {
-            return std::find(queued_player_messages_.begin(), queued_player_messages_.end(), r.get()) !=
-                   queued_player_messages_.end();
-        });
-        queued_player_messages_.clear();
-        protocol::roster roster;
-        for (auto const& [id, name] : players_)
-            roster.players.push_back({id, name});
-        bytes = std::make_shared<std::string const>(protocol::encode(roster));
-        bump(room_->traffic().player_messages_merged);
-    }
-    queued_player_messages_.push_back(bytes.get());
-    queue_reply(std::move(bytes));
+    std::erase_if(replies_, [&](std::shared_ptr<std::string const> const& r) {
+        return std::find(queued_player_messages_.begin(), queued_player_messages_.end(), r.get()) !=
+               queued_player_messages_.end();
+    });
+    queued_player_messages_.clear();
 }
 
 void websocket_session::send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot)

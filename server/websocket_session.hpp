@@ -4,12 +4,10 @@
 #include "network.hpp"
 #include "options.hpp"
 
-#include "protocol/messages.hpp"
 
 #include <chrono>
 #include <cstdint>
 #include <deque>
-#include <map>
 #include <vector>
 #include <memory>
 #include <optional>
@@ -48,12 +46,13 @@ public:
     void send_reply(std::shared_ptr<std::string const> bytes);
     /// Queues a message that answers no command (a welcome sent again), like a reply.
     void send_notice(std::shared_ptr<std::string const> bytes);
-    /// Queues the room's players (sent after the welcome) or a notice that one joined, was
-    /// renamed or left, like a reply. The session keeps the roster they add up to: when many
-    /// notices wait unsent (a crowd joining at once), they are replaced by that one roster,
-    /// so a crowd cannot fill the reply queue of a client that reads.
-    void send_players(protocol::roster roster);
-    void send_player_notice(protocol::player_notice notice, std::shared_ptr<std::string const> bytes);
+    /// Queues the room's players (sent after the welcome), in place of any player message
+    /// still unsent, like a reply.
+    void send_players(std::shared_ptr<std::string const> roster);
+    /// Queues a notice that a player joined, was renamed or left, like a reply. When many wait
+    /// unsent (a crowd joining at once), they are dropped and the room is asked for the roster
+    /// instead, so a crowd cannot fill the reply queue of a client that reads.
+    void send_player_notice(std::shared_ptr<std::string const> notice);
     /// Offers a snapshot; replaces any snapshot not yet sent. Which of its forms is sent is
     /// chosen when it is written (encoded_snapshot).
     void send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
@@ -78,7 +77,7 @@ private:
     void refuse_rate_limited(std::optional<std::uint64_t> ref);
 
     void queue_reply(std::shared_ptr<std::string const> bytes);
-    void queue_player_message(std::shared_ptr<std::string const> bytes);
+    void drop_queued_player_messages();
     void queue_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
     /// The bytes to send of a snapshot: the full form, a delta against what the client
     /// holds, or the keyframe.
@@ -98,11 +97,10 @@ private:
     std::string peer_; ///< address:port, for logs
 
     std::deque<std::shared_ptr<std::string const>> replies_;
-    /// The room's players as the messages queued for this client add up to, and which of
-    /// replies_ are player messages (at most most_player_messages; more are replaced by one
-    /// roster).
-    std::map<std::uint64_t, std::optional<std::string>> players_;
+    /// Which of replies_ are player messages (at most most_player_messages; more are
+    /// replaced by one roster), and whether the room was asked for that roster.
     std::vector<std::string const*> queued_player_messages_;
+    bool roster_asked_ = false;
     /// Snapshots not yet sent: the newest alone, or, on the compact form, a short run of
     /// deltas each against the one before (a client a little behind gets them rather than a
     /// keyframe many times their size, which would put it further behind).

@@ -19,6 +19,7 @@ inline std::vector<client_message> client_messages()
         hello{.name = "operator", .admin_token = "s3cret-token"},
         hello{.protocol = protocol_version, .snapshots = snapshot_request{.form = "compact", .rate = 10.0}},
         hello{.snapshots = snapshot_request{}},
+        hello{.players = false},
         spawn{.ref = 1, .body = {.position = {0.0, 0.0, 2.0}, .radius = 0.1, .mass = 2.5}},
         spawn{.ref = 2,
               .body = {.position = {1.0, -2.0, 3.5},

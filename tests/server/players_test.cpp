@@ -163,6 +163,36 @@ TEST(Players, AFloodOfRenamesIsRateLimited)
     EXPECT_EQ(ann.next("player"), notice("left", bob_id, "bob 3"));
 }
 
+// Presence costs the room a message to every client for each join, rename and leave: a
+// client that needs none (a load generator) says so, and hears nothing more until it asks
+// again, when it gets the roster as it is then.
+TEST(Players, AClientThatAsksForNoPlayerMessagesGetsNoneUntilItAsksAgain)
+{
+    test_support::in_process_server s(one_room("quiet"));
+    player_client ann(s.port());
+    EXPECT_EQ(ann.next("players").at("players").size(), 1U);
+    ann.ws.send(json{{"type", "hello"}, {"players", false}});
+    ann.ws.send(json{{"type", "ping"}, {"ref", 1}});
+    EXPECT_EQ(ann.next("pong").at("ref"), 1); // the hello has reached the room
+    auto bob = std::make_unique<player_client>(s.port());
+    std::uint64_t const bob_id = bob->id;
+    bob->ws.send(json{{"type", "hello"}, {"name", "bob"}});
+    EXPECT_EQ(bob->next("player"), notice("renamed", bob_id, "bob"));
+    // bob's join and name are known to the room now; ann's next player message is the roster
+    // she asks for below, with bob in it: nothing came before it.
+    ann.ws.send(json{{"type", "hello"}, {"players", true}});
+    json roster;
+    while (roster.is_null()) {
+        json const m = ann.ws.read_json();
+        ASSERT_NE(m.at("type"), "player") << m.dump(); // no notice while she asked for none
+        if (m.at("type") == "players")
+            roster = m;
+    }
+    EXPECT_EQ(roster, (json{{"type", "players"}, {"players", {player(ann.id), player(bob_id, "bob")}}}));
+    bob.reset();
+    EXPECT_EQ(ann.next("player"), notice("left", bob_id, "bob"));
+}
+
 // A crowd joining while a client is not reading does not fill that client's reply queue:
 // its unsent player notices are replaced by one roster of the players they add up to. The
 // client stops reading while a snapshot of 3,000 bodies fills its socket (a small send
