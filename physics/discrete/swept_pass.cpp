@@ -132,9 +132,9 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
     }
     if (!sw.events)
         sw.events = std::make_unique<collision_workspace>();
-    sw.events->continuous.keep_segments = !every_sphere;
 
     for (int attempt = 1;; ++attempt) {
+        sw.events->continuous.keep_segments = !every_sphere; // the paths step 4 looks at
         // 2. Copies of the swept bodies, in slot order, on the paths free motion gave them.
         sw.members.clear();
         for (std::uint32_t i = 0; i < n; ++i)
