@@ -291,7 +291,7 @@ void room::leave(std::uint64_t client_id)
         auto const gone = std::find_if(self->sessions_.begin(), self->sessions_.end(),
                                        [&](member const& m) { return m.client_id == client_id; });
         if (gone == self->sessions_.end())
-            return; // a snapshot found it ended first, and told the others
+            return;
         protocol::player_notice const left{.change = "left", .id = client_id, .name = gone->name};
         self->sessions_.erase(gone);
         self->counters_.sessions = self->sessions_.size();
@@ -827,29 +827,22 @@ protocol::snapshot room::copy_snapshot() const
 
 void room::send_snapshot()
 {
-    // The sessions that ended left the room; the others are this snapshot's audience.
+    // The sessions still alive are this snapshot's audience (one that ended is forgotten
+    // when its leave() comes).
     std::vector<std::shared_ptr<websocket_session>> audience;
     audience.reserve(sessions_.size());
     bool any_full = false;
     std::vector<std::uint64_t> chains; // the `every` of each compact client, once each
-    std::vector<protocol::player_notice> left;
-    std::erase_if(sessions_, [&](member const& m) {
+    for (member const& m : sessions_) {
         auto session = m.session.lock();
-        if (!session) { // it ended: it left the room (before its leave() came)
-            left.push_back({.change = "left", .id = m.client_id, .name = m.name});
-            return true;
-        }
+        if (!session)
+            continue; // it ended: its leave() is on its way
         audience.push_back(std::move(session));
         if (!m.compact)
             any_full = true;
         else if (std::find(chains.begin(), chains.end(), m.every) == chains.end())
             chains.push_back(m.every);
-        return false;
-    });
-    counters_.sessions = sessions_.size();
-    counters_.players = sessions_.size();
-    for (protocol::player_notice const& notice : left)
-        tell_players(notice, notice.id);
+    }
     if (audience.empty())
         return; // nobody to send it to: nothing to encode
     // Only the copy is made on the tick (about 0.2 ms for 10,000 bodies). Encoding (6 to 9 ms

@@ -115,7 +115,7 @@ public:
     void stop();
 
     /// Adds a session; it is sent `welcome` first, then every snapshot. A session leaves
-    /// by ending: the room holds it weakly and forgets it at the next snapshot.
+    /// by ending: the room holds it weakly, and its destructor calls leave().
     void join(std::shared_ptr<websocket_session> session);
     /// Queues a command for the next tick (ping is answered at once). `admin`: the sender
     /// proved itself an admin before sending it (the session refuses admin commands from

@@ -19,9 +19,9 @@ namespace {
 /// deltas, and at most this many bytes of them after the first, before a newer snapshot
 /// replaces them all (and then comes as a keyframe).
 constexpr std::size_t most_pending_snapshots = 4;
+constexpr std::size_t most_pending_delta_bytes = 64 * 1024;
 /// Player messages unsent before they are replaced by one roster.
 constexpr std::size_t most_player_messages = 16;
-constexpr std::size_t most_pending_delta_bytes = 64 * 1024;
 
 std::optional<std::uint64_t> ref_of(protocol::client_message const& message)
 {

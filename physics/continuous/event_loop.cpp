@@ -126,7 +126,7 @@ public:
     void finish()
     {
         for (std::uint32_t i : ws_.members) {
-            note_reach(i, h_);
+            note_segment(i, h_);
             ws_.paths[i].advance_to(h_);
             b_.x[i] = ws_.paths[i].x;
             b_.v[i] = ws_.paths[i].v;
@@ -422,7 +422,7 @@ private:
         double const now = e.time;
         std::uint32_t const i = e.body;
         body_path& p = ws_.paths[i];
-        note_reach(i, now);
+        note_segment(i, now);
         p.advance_to(now);
         double const r = b_.radius[i];
         bool answered = false;
@@ -449,7 +449,7 @@ private:
         case event_kind::pair: {
             std::uint32_t const j = e.other;
             body_path& q = ws_.paths[j];
-            note_reach(j, now);
+            note_segment(j, now);
             q.advance_to(now);
             vec3 const d = p.x - q.x;
             double const distance = d.norm();
@@ -482,7 +482,7 @@ private:
     }
 
     /// For the caller that asks: body i's path from its last change to `until`.
-    void note_reach(std::uint32_t i, double until)
+    void note_segment(std::uint32_t i, double until)
     {
         if (ws_.keep_segments)
             ws_.segments.push_back({i, until, ws_.paths[i]});
