@@ -1,11 +1,15 @@
 #include "body_storage.hpp"
 
+#include "physics/continuous/event.hpp"
+
 #include <cmath>
 #include <numbers>
 #include <stdexcept>
 #include <string>
 
 namespace kugel::physics {
+
+static_assert(body_storage::most_bodies <= continuous::event::most_indexed);
 
 double mass_from_density(double density, double radius)
 {
@@ -42,8 +46,8 @@ body_id body_storage::add(body_desc const& d)
         index = free_indices_.back();
         free_indices_.pop_back();
     } else {
-        if (sparse_.size() >= std::size_t{0xffffffffU})
-            throw std::length_error("body_storage is full");
+        if (sparse_.size() >= most_bodies)
+            throw std::length_error("body_storage is full: 2^30 bodies");
         index = static_cast<std::uint32_t>(sparse_.size());
         sparse_.emplace_back();
     }

@@ -33,8 +33,13 @@ double mass_from_density(double density, double radius);
 class body_storage
 {
 public:
+    /// The most body ids a storage hands out (2^30, about 10⁹: over 100 GB of bodies): the
+    /// continuous mode names a body in 30 bits of an event (continuous/event.hpp).
+    static constexpr std::size_t most_bodies = std::size_t{1} << 30U;
+
     /// Adds a body; throws std::invalid_argument naming the bad field (non-finite values,
-    /// negative radius, non-positive mass of a dynamic body, velocity on a static body).
+    /// negative radius, non-positive mass of a dynamic body, velocity on a static body), and
+    /// std::length_error when most_bodies ids are in use.
     body_id add(body_desc const& desc);
 
     /// Removes a body; false when the id names no live body.

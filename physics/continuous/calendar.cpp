@@ -281,20 +281,25 @@ void calendar::open_bucket()
     filed.clear();
     std::make_heap(queue_.begin(), queue_.end(), std::greater<>{});
     if (opened_ % static_cast<std::int64_t>(later_.size()) == 0) {
-        // the ring's turn: the events beyond it, filed again (or again beyond)
-        refiling_.swap(latest_);
-        latest_.clear();
-        for (event const& e : refiling_)
-            if (current(e))
+        // the ring's turn: the events beyond it, filed again, or kept where they are (in
+        // place: a second list as long would be the calendar's largest)
+        std::size_t kept = 0;
+        for (event const& e : latest_) {
+            if (!current(e))
+                continue;
+            if (bucket_of(e.time) - opened_ <= static_cast<std::int64_t>(later_.size()))
                 file(e);
-        refiling_.clear();
+            else
+                latest_[kept++] = e;
+        }
+        latest_.resize(kept);
     }
 }
 
 bool calendar::current(event const& e) const
 {
     return spheres_[e.body].version == e.body_version &&
-           (e.kind != event_kind::pair || spheres_[e.other].version == e.other_version);
+           (e.kind() != event_kind::pair || spheres_[e.other()].version == e.other_version);
 }
 
 void calendar::predict_pair(std::uint32_t i, std::uint32_t j)
@@ -321,6 +326,11 @@ void calendar::predict_walls(std::uint32_t i)
     if (shapes_[i].inverse_mass == 0.0)
         return;
     sphere const& p = spheres_[i];
+    // Only the first wall it reaches: a wall event always starts a new path (handle_wall),
+    // so the events of the walls after it would be stale by their time. (A tie goes to the
+    // lower wall, the one the queue would take first.)
+    double soonest = forever;
+    std::uint32_t first = 0;
     for (std::uint32_t k = 0; k < walls_.size(); ++k) {
         // only the walls it moves towards (n·v < 0, exact for a normal ±e_axis); the gap
         // ±x − d − r, plainly, errs by a few units in the last place of x, within the touching
@@ -330,8 +340,14 @@ void calendar::predict_walls(std::uint32_t i)
         if (!(towards < 0.0))
             continue;
         double const gap = ((s.positive ? p.x[s.axis] : -p.x[s.axis]) - walls_[k].surface.offset) - shapes_[i].radius;
-        push(p.since + (gap > 0.0 ? gap / -towards : 0.0), event_kind::wall, i, k);
+        double const t = std::max(p.since + (gap > 0.0 ? gap / -towards : 0.0), now_); // as push() files it
+        if (t < soonest) {
+            soonest = t;
+            first = k;
+        }
     }
+    if (soonest < forever)
+        push(soonest, event_kind::wall, i, first);
 }
 
 void calendar::predict_crossing(std::uint32_t i)
@@ -378,7 +394,7 @@ void calendar::predict_body(std::uint32_t i, std::uint32_t except)
 
 void calendar::handle_pair(event const& e)
 {
-    std::uint32_t const i = e.body, j = e.other;
+    std::uint32_t const i = e.body, j = e.other();
     vec3 const xi = position(i, e.time), xj = position(j, e.time);
     vec3 vi = spheres_[i].v, vj = spheres_[j].v;
     vec3 const d = xi - xj;
@@ -399,7 +415,7 @@ void calendar::handle_pair(event const& e)
 void calendar::handle_wall(event const& e)
 {
     std::uint32_t const i = e.body;
-    wall const& w = walls_[e.other];
+    wall const& w = walls_[e.other()];
     double const r = shapes_[i].radius;
     body_path p{position(i, e.time), spheres_[i].v, vec3::Zero(), e.time};
     double const height = w.surface.normal.dot(p.x);
@@ -416,8 +432,8 @@ void calendar::handle_wall(event const& e)
 void calendar::handle_crossing(event const& e)
 {
     std::uint32_t const i = e.body;
-    auto const axis = static_cast<std::size_t>(e.other / 2U);
-    bool const up = (e.other & 1U) != 0U;
+    auto const axis = static_cast<std::size_t>(e.other() / 2U);
+    bool const up = (e.other() & 1U) != 0U;
     unlink(i);
     cell_[i][axis] = up ? cell_[i][axis] + 1U : cell_[i][axis] - 1U;
     link(i);
@@ -485,13 +501,13 @@ calendar::outcome calendar::step(collision_settings const& settings, std::span<w
             continue;
         now_ = e.time;
         ++stats.events;
-        if (e.kind == event_kind::crossing) {
+        if (e.kind() == event_kind::crossing) {
             handle_crossing(e);
             continue;
         }
-        bool const pair = e.kind == event_kind::pair;
+        bool const pair = e.kind() == event_kind::pair;
         if (contacts == settings.max_events_per_step || events_of_[e.body]++ >= settings.max_events_per_body ||
-            (pair && events_of_[e.other]++ >= settings.max_events_per_body)) {
+            (pair && events_of_[e.other()]++ >= settings.max_events_per_body)) {
             write_positions(b, end);
             built_ = false;
             return outcome::capped;

@@ -153,7 +153,6 @@ private:
     std::vector<event> latest_;
     double bucket_ = 1.0;
     std::int64_t opened_ = 0; ///< the last bucket moved into the queue
-    std::vector<event> refiling_; ///< scratch
     vec3 lo_ = vec3::Zero();
     vec3 width_ = vec3::Ones(), inverse_width_ = vec3::Ones();
     std::array<std::uint32_t, 3> dims_{1, 1, 1};

@@ -111,7 +111,7 @@ public:
                 if (!current(e))
                     continue;
                 if (handled == settings_.max_events_per_step || !take_part(e.body) ||
-                    (e.kind == continuous::event_kind::pair && !take_part(e.other)))
+                    (e.kind() == continuous::event_kind::pair && !take_part(e.other())))
                     return false;
                 ++handled;
                 ++stats_.events;
@@ -328,7 +328,7 @@ private:
     bool current(event const& e) const
     {
         return ws_.version[e.body] == e.body_version &&
-               (e.kind != event_kind::pair || ws_.version[e.other] == e.other_version);
+               (e.kind() != event_kind::pair || ws_.version[e.other()] == e.other_version);
     }
 
     void predict_pair(std::uint32_t i, std::uint32_t j, double now, std::vector<event>* into = nullptr)
@@ -426,9 +426,9 @@ private:
         p.advance_to(now);
         double const r = b_.radius[i];
         bool answered = false;
-        switch (e.kind) {
+        switch (e.kind()) {
         case event_kind::wall: {
-            wall const& w = walls_[e.other];
+            wall const& w = walls_[e.other()];
             double const height = w.surface.normal.dot(p.x);
             if (height <= w.surface.offset + r + touching_tolerance * r ||
                 height <= w.surface.offset + r + position_slack(p.x, vec3::Zero()))
@@ -438,7 +438,7 @@ private:
             break;
         }
         case event_kind::obstacle: {
-            obstacle const& o = obstacles_[e.other];
+            obstacle const& o = obstacles_[e.other()];
             auto const c = sphere_vs_obb(p.x, r, o.box);
             if (c.distance <= touching_tolerance * r || c.distance <= position_slack(p.x, vec3::Zero()))
                 answered = detail::respond_to_surface(p, c.normal, p.x.dot(c.normal) - c.distance,
@@ -447,7 +447,7 @@ private:
             break;
         }
         case event_kind::pair: {
-            std::uint32_t const j = e.other;
+            std::uint32_t const j = e.other();
             body_path& q = ws_.paths[j];
             note_segment(j, now);
             q.advance_to(now);
