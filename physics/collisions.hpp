@@ -146,7 +146,14 @@ class collision_workspace
 public:
     discrete_workspace discrete;       ///< discrete mode's
     continuous::workspace continuous;  ///< continuous mode's
-    // max_overlap()'s broadphase:
+    /// A sphere filed by its centre for max_overlap(): its cell's key and its body slot.
+    struct filed_centre
+    {
+        std::uint64_t key;
+        std::uint32_t slot;
+    };
+    std::vector<filed_centre> filed; ///< max_overlap()'s spheres, by cell
+    // max_overlap()'s broadphase, for coordinates its cells cannot number:
     broadphase_workspace broadphase;
     std::vector<aabb> boxes;
     std::vector<std::uint32_t> members; ///< body slot of each box

@@ -363,3 +363,57 @@ TEST(Collisions, SameSceneGivesTheSameBits)
 
 } // namespace
 } // namespace kugel::physics
+
+namespace kugel::physics {
+namespace {
+
+/// Every pair, plainly: what max_overlap() must find however it files the spheres.
+double deepest_overlap_of_every_pair(std::span<vec3 const> x, std::span<double const> r)
+{
+    double worst = 0.0;
+    for (std::size_t i = 0; i < x.size(); ++i)
+        for (std::size_t j = i + 1; j < x.size(); ++j)
+            if (r[i] > 0.0 && r[j] > 0.0)
+                worst = std::max(worst, r[i] + r[j] - (x[i] - x[j]).norm());
+    return worst;
+}
+
+// max_overlap() files centres by cell and scans each cell's half shell of neighbours, and
+// falls back to the broadphase where cells cannot be numbered. Both must give exactly the
+// plain answer over every pair (the same formula on the same pair: equal bits), for crowded
+// and sparse spheres of mixed sizes, point masses among them, near the origin and far out.
+TEST(MaxOverlap, IsTheDeepestOverlapOfEveryPairExactly)
+{
+    std::mt19937_64 rng(20261206);
+    for (double const centre : {0.0, -3.7e6, 1e300}) {
+        for (double const spread : {0.5, 4.0, 40.0}) {
+            std::uniform_real_distribution<double> at(-spread, spread);
+            std::uniform_real_distribution<double> size(0.0, 0.3);
+            std::vector<vec3> x;
+            std::vector<double> r;
+            for (int k = 0; k < 400; ++k) {
+                x.push_back(vec3::Constant(centre) + vec3(at(rng), at(rng), at(rng)));
+                r.push_back(k % 17 == 0 ? 0.0 : size(rng));
+            }
+            collision_workspace ws;
+            EXPECT_EQ(max_overlap({}, {}, x, r, ws), deepest_overlap_of_every_pair(x, r))
+                << "centre " << centre << ", spread " << spread;
+        }
+    }
+}
+
+TEST(MaxOverlap, SeparateSpheresAndNoSpheresOverlapByNothing)
+{
+    collision_workspace ws;
+    std::vector<vec3> const x{vec3(0, 0, 0), vec3(1, 0, 0), vec3(0, 0, 1)};
+    EXPECT_EQ(max_overlap({}, {}, x, std::vector<double>{0.1, 0.1, 0.0}, ws), 0.0);
+    EXPECT_EQ(max_overlap({}, {}, x, std::vector<double>{0.0, 0.0, 0.0}, ws), 0.0);
+    EXPECT_EQ(max_overlap({}, {}, {}, {}, ws), 0.0);
+    // touching across a cell's corner: the neighbour in (−1, −1, −1) is found from the other side
+    std::vector<vec3> const corner{vec3(0, 0, 0), vec3(-0.1, -0.1, -0.1)};
+    EXPECT_EQ(max_overlap({}, {}, corner, std::vector<double>{0.1, 0.1}, ws), 0.1 + 0.1 - (corner[0] - corner[1]).norm());
+    EXPECT_GT(max_overlap({}, {}, corner, std::vector<double>{0.1, 0.1}, ws), 0.026); // 0.2 − √0.03
+}
+
+} // namespace
+} // namespace kugel::physics
