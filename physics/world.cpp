@@ -265,6 +265,7 @@ void world::step(double dt)
     if (!std::isfinite(dt) || dt < 0.0)
         throw std::invalid_argument("step dt must be finite and >= 0");
     bool const sleeping = sleeping_applies() && dt > 0.0;
+    sensor_events_.clear();
     if (sleeping) { // a step's islands start as one body each
         parent_.resize(bodies_.size());
         for (std::uint32_t i = 0; i < parent_.size(); ++i)
@@ -277,10 +278,13 @@ void world::step(double dt)
         // a failed step changes nothing, as with one substep.
         undo_x_.assign(bodies_.positions().begin(), bodies_.positions().end());
         undo_v_.assign(bodies_.velocities().begin(), bodies_.velocities().end());
+        auto const inside_before = inside_; // what the sensors held (empty without sensors)
         auto const undo = [&] {
             std::ranges::copy(undo_x_, bodies_.positions().begin());
             std::ranges::copy(undo_v_, bodies_.velocities().begin());
             workspace_.invalidate();
+            inside_ = inside_before;
+            sensor_events_.clear();
         };
         try {
             substeps(dt);
@@ -302,6 +306,13 @@ void world::step(double dt)
     ++steps_;
     if (sleeping)
         fall_asleep(dt);
+    std::sort(sensor_events_.begin(), sensor_events_.end(), [](sensor_event const& a, sensor_event const& b) {
+        if (a.time != b.time)
+            return a.time < b.time;
+        if (a.sensor != b.sensor)
+            return a.sensor < b.sensor;
+        return a.body.index != b.body.index ? a.body.index < b.body.index : a.body.generation < b.body.generation;
+    });
 }
 
 void world::substeps(double dt)
@@ -309,6 +320,8 @@ void world::substeps(double dt)
     double const h = dt / settings_.substeps;
     collision_mode const mode = h > 0.0 ? settings_.collisions.mode : collision_mode::off;
     for (int substep = 0; substep < settings_.substeps; ++substep) {
+        if (!sensors_.empty())
+            keep_sensor_start();
         switch (mode) {
         case collision_mode::off:
             move_freely(h);               // forces where the integrator needs them, and the integrator
@@ -331,6 +344,8 @@ void world::substeps(double dt)
                 note_contacts();           // islands, what they touch, sleepers to wake
             break;
         }
+        if (!sensors_.empty())
+            follow_sensors(h, time_ + static_cast<double>(substep) * h); // who entered and left a sensor, and when
     }
     if (mode == collision_mode::discrete && bodies_.size() >= bodies_worth_sorting && steps_ % sort_interval == 0) {
         phase_clock clock(timings_);

@@ -5,6 +5,7 @@
 #include "forces.hpp"
 #include "integrators.hpp"
 #include "parallel_for.hpp"
+#include "sensors.hpp"
 
 #include <cstdint>
 #include <memory>
@@ -75,6 +76,17 @@ public:
     /// std::invalid_argument for damping or friction outside [0, 1].
     void add_wall(wall const& w);
     void add_obstacle(obstacle const& o);
+
+    /// Adds a sensor (sensors.hpp) and returns its index; throws std::invalid_argument for one
+    /// sensor::invalid() refuses. The bodies already inside it enter it in the next step.
+    std::uint32_t add_sensor(sensor const& s);
+    std::span<sensor const> sensors() const { return sensors_; }
+    /// The bodies entering and leaving sensors in the last step(), by time (then sensor, then
+    /// body id). Empty in a world without sensors.
+    std::span<sensor_event const> sensor_events() const { return sensor_events_; }
+    /// The bodies in sensor `index` after the last step, by id; a body added or removed since
+    /// is counted from the next step (a removed body leaves no event).
+    std::span<body_id const> bodies_in_sensor(std::uint32_t index) const { return inside_[index]; }
 
     /// Advances the world by dt seconds (dt finite and >= 0, else std::invalid_argument).
     /// Throws singular_force_error when a force is singular, and step_control_error when the
@@ -151,6 +163,14 @@ private:
     /// Moves the bodies into the last collision step's cell order (bodies_worth_sorting).
     void sort_bodies_by_cell();
 
+    // Sensors (world_sensors.cpp)
+    /// Before a substep in a world with sensors: where each body starts, and in continuous
+    /// mode the contacts' paths kept for follow_sensors().
+    void keep_sensor_start();
+    /// After a substep of length h that started at world time `start`: the events of every
+    /// body's path through every sensor.
+    void follow_sensors(double h, double start);
+
     // Sleeping (world_sleep.cpp)
     static constexpr std::uint32_t awake = 0; ///< island_of_ of an awake body
     /// Whether this step puts bodies to sleep and keeps sleepers still: discrete mode, under
@@ -184,6 +204,11 @@ private:
     /// from step to step, so the step allocates nothing once they have grown)
     std::vector<vec3> undo_x_, undo_v_;
     std::vector<std::uint32_t> cell_order_; ///< scratch for sort_bodies_by_cell()
+    std::vector<sensor> sensors_;
+    std::vector<std::vector<body_id>> inside_; ///< by sensor: the bodies in it, by id
+    std::vector<sensor_event> sensor_events_;  ///< of the last step
+    std::vector<vec3> sensor_x0_, sensor_v0_;  ///< each body at the substep's start
+    std::vector<body_id> still_inside_;        ///< scratch
     // Sleeping, by slot (moved with the bodies by remove_body and sort_bodies_by_cell)
     std::vector<double> calm_;              ///< s the body has been slower than sleep_speed
     std::vector<std::uint32_t> island_of_;  ///< its sleeping island's number, or awake

@@ -521,7 +521,7 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
 {
     continuous::calendar& kept = workspace.continuous.kept;
     auto outcome = continuous::calendar::outcome::declined;
-    if (settings.event_calendar && obstacles.empty())
+    if (settings.event_calendar && obstacles.empty() && !workspace.continuous.keep_segments)
         outcome = kept.step(settings, walls, bodies, h, stats);
     else
         kept.forget();
