@@ -1341,8 +1341,8 @@ public:
                 } else if (u < 0x20) { // never in a valid tag; escaped rather than sent raw
                     static constexpr char hex[] = "0123456789abcdef";
                     raw("\\u00");
-                    raw(hex[u >> 4U]);
-                    raw(hex[u & 0xFU]);
+                    raw(hex[static_cast<std::size_t>(u >> 4U)]);
+                    raw(hex[static_cast<std::size_t>(u & 0xFU)]);
                 } else {
                     raw(c);
                 }
