@@ -34,6 +34,7 @@ json body_json(protocol::snapshot const& snapshot, std::size_t i)
         body["mass"] = (*b.mass)[i];
     if (b.charge)
         body["charge"] = (*b.charge)[i];
+    body["tag"] = b.tag && !(*b.tag)[i].empty() ? json((*b.tag)[i]) : json(); // null: none
     body["tick"] = snapshot.tick;
     body["time"] = snapshot.time;
     return body;
@@ -117,6 +118,13 @@ body_check check_body(body_expectation const& expectation, protocol::snapshot co
     compare("velocity", expectation.velocity);
     if (expectation.position || expectation.velocity)
         check.expected += " ± " + describe(json(tolerance));
+    if (expectation.tag) {
+        json const wanted = vars.resolve(*expectation.tag, &here); // "$name": a kept tag
+        if (check.body["tag"] != wanted)
+            check.passed = false;
+        check.expected += ", tag " + describe(wanted);
+        check.arrived += ", tag " + describe(check.body["tag"]);
+    }
     return check;
 }
 

@@ -17,7 +17,7 @@ struct body_check
     std::string expected; ///< what the expectation asked, values resolved
     std::string arrived;  ///< what the snapshot showed
     nlohmann::json body;  ///< the body as JSON (id, position, velocity, radius, mass, charge,
-                          ///< tick, time), null when it is not in the snapshot
+                          ///< tag (null: none), tick, time), null when it is not in the snapshot
 };
 
 /// Checks `expectation` against `snapshot`. Its values may use `vars` and, for this snapshot,

@@ -23,9 +23,12 @@ namespace kugel::client {
 
 /// A command: what the server answers with an ack (or pong) or an error carrying its ref.
 /// The admin commands are answered `forbidden` unless the connection's hello made it an admin.
+/// A `set` (a body's new position and/or velocity) is allowed by the room's push rule
+/// (welcome().permissions), as an impulse is; a spawn's body may carry a tag, and an admin's a
+/// `static` flag.
 using command = std::variant<protocol::spawn, protocol::impulse, protocol::remove, protocol::ping,
                              protocol::pause, protocol::resume, protocol::reset,
-                             protocol::load_scene>;
+                             protocol::load_scene, protocol::set>;
 
 /// The server's answer to a command.
 using reply = std::variant<protocol::ack, protocol::error, protocol::pong>;

@@ -101,7 +101,7 @@ std::array<json, 3> vector_at(json const& value, place const& at)
 
 body_expectation body_at(json const& value, place const& at, bool with_max_ticks, json* max_ticks)
 {
-    std::set<std::string> known{"id", "exists", "position", "velocity", "tolerance", "keep"};
+    std::set<std::string> known{"id", "exists", "position", "velocity", "tolerance", "tag", "keep"};
     if (with_max_ticks)
         known.insert("max_ticks");
     json const& object = object_at(value, at);
@@ -125,6 +125,13 @@ body_expectation body_at(json const& value, place const& at, bool with_max_ticks
         body.tolerance = number_or_substituted(object["tolerance"], at / "tolerance");
     if (!body.exists && (body.position || body.velocity || object.contains("keep")))
         at.fail("a body expected not to exist has no position, velocity or keep");
+    if (object.contains("tag")) {
+        if (!object["tag"].is_string() && !object["tag"].is_null())
+            (at / "tag").fail("must be a string (the body's tag) or null (no tag), got " + describe(object["tag"]));
+        if (!body.exists)
+            (at / "tag").fail("a body expected not to exist has no tag");
+        body.tag = object["tag"];
+    }
     if (object.contains("keep"))
         body.keep = keep_at(object["keep"], at / "keep");
     if (with_max_ticks) {
@@ -221,7 +228,7 @@ step step_at(json const& value, std::size_t number)
         send_step send;
         send.message = object_at(body, inner);
         if (!send.message.contains("type") || !send.message["type"].is_string())
-            inner.fail("a message has a string \"type\" (spawn, impulse, remove, ping, hello, or an "
+            inner.fail("a message has a string \"type\" (spawn, impulse, set, remove, ping, hello, or an "
                        "admin command: pause, resume, reset, load_scene)");
         if (send.message.contains("ref"))
             (inner / "ref")

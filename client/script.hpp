@@ -77,7 +77,9 @@ struct body_expectation
     std::optional<std::array<nlohmann::json, 3>> position; ///< m; null components are not checked
     std::optional<std::array<nlohmann::json, 3>> velocity; ///< m/s
     nlohmann::json tolerance; ///< m or m/s, absolute, per component: |got - expected| <= it
-    keep_map keep;            ///< from id, position, velocity, radius, mass, charge, tick, time
+    /// The body's tag: a string ("$name" for a kept one), or null for a body without one
+    std::optional<nlohmann::json> tag;
+    keep_map keep;            ///< from id, position, velocity, radius, mass, charge, tag, tick, time
 };
 
 /// Check a body in the newest snapshot received.

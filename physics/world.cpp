@@ -71,6 +71,30 @@ bool world::apply_impulse(body_id id, vec3 const& impulse)
     return true;
 }
 
+bool world::set_state(body_id id, std::optional<vec3> const& position, std::optional<vec3> const& velocity)
+{
+    auto const slot = bodies_.slot_of(id);
+    if (!slot)
+        return false;
+    if ((position && !position->allFinite()) || (velocity && !velocity->allFinite()))
+        throw std::invalid_argument("a body's new position and velocity must be finite");
+    if (velocity && bodies_.inverse_masses()[*slot] == 0.0 && !velocity->isZero(0.0))
+        throw std::invalid_argument("a static body cannot move: its velocity stays zero");
+    if (island_of_[*slot] != awake)
+        wake_island(island_of_[*slot]);
+    calm_[*slot] = 0.0;
+    double const r = bodies_.radii()[*slot];
+    if (position) {
+        wake_near(bodies_.positions()[*slot], r); // what it carried falls
+        bodies_.positions()[*slot] = *position;
+        wake_near(*position, r);
+        workspace_.invalidate(); // the forces depend on the positions
+    }
+    if (velocity)
+        bodies_.velocities()[*slot] = *velocity;
+    return true;
+}
+
 void world::add_force(std::unique_ptr<force_model> model)
 {
     forces_.push_back(std::move(model));

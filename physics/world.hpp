@@ -9,6 +9,7 @@
 
 #include <cstdint>
 #include <memory>
+#include <optional>
 #include <vector>
 
 namespace kugel::physics {
@@ -54,6 +55,12 @@ public:
     /// waking it (and its island) when asleep. False when the id names no live body; a static
     /// body ignores impulses.
     bool apply_impulse(body_id id, vec3 const& impulse);
+    /// Sets a body's position and/or velocity (what is not given stays), waking it (and its
+    /// island) when asleep, and the sleepers it touched where it was and touches where it is
+    /// now (as remove_body and add_body do). False when the id names no live body; throws
+    /// std::invalid_argument for a value that is not finite, or a velocity other than zero
+    /// for a static body. The caller checks where the body may go (walls, other spheres).
+    bool set_state(body_id id, std::optional<vec3> const& position, std::optional<vec3> const& velocity);
 
     void add_force(std::unique_ptr<force_model> model);
 

@@ -131,6 +131,7 @@ template <class T, class M> struct field
     M T::*member;
     bool defaulted = false;
     void (*check)(value_type const&, location const&) = nullptr;
+    bool written_only_when_set = false; ///< a defaulted member left off the wire at its default
 };
 
 template <class T, class M>
@@ -145,6 +146,13 @@ constexpr field<T, M> member(std::string_view name, M T::*pointer,
 template <class T, class M> constexpr field<T, M> with_default(std::string_view name, M T::*pointer)
 {
     return {name, pointer, true, nullptr};
+}
+
+/// A member that may be absent on the wire, and is written only when it is not M{}: a flag
+/// added to a message that existing senders never set.
+template <class T, class M> constexpr field<T, M> only_when_set(std::string_view name, M T::*pointer)
+{
+    return {name, pointer, true, nullptr, true};
 }
 
 void at_least_zero(double const& x, location const& at)
@@ -200,6 +208,27 @@ void player_name(std::string const& name, location const& at)
                                                std::to_string(static_cast<unsigned>(c)) + ")");
 }
 
+/// A body's tag: shown with the body to every client, so short and free of control characters
+/// (JSON has already refused invalid UTF-8).
+void body_tag(std::string const& tag, location const& at)
+{
+    if (tag.empty() || tag.size() > max_body_tag_bytes)
+        at.fail(error_code::bad_value, "must be 1 to " + std::to_string(max_body_tag_bytes) +
+                                           " bytes of UTF-8, got " + std::to_string(tag.size()));
+    for (char const ch : tag)
+        if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
+            at.fail(error_code::bad_value, "must not hold control characters (found the byte " +
+                                               std::to_string(static_cast<unsigned>(c)) + ")");
+}
+
+/// A snapshot's tag column: a tag, or "" for a body without one.
+void tag_column(std::vector<std::string> const& tags, location const& at)
+{
+    for (std::size_t i = 0; i < tags.size(); ++i)
+        if (!tags[i].empty())
+            body_tag(tags[i], at / i);
+}
+
 constexpr auto fields(std::type_identity<hello>)
 {
     return std::tuple{member("protocol", &hello::protocol, spoken_protocol),
@@ -214,7 +243,9 @@ constexpr auto fields(std::type_identity<body_spec>)
                       member("radius", &body_spec::radius, at_least_zero),
                       member("mass", &body_spec::mass, above_zero),
                       member("density", &body_spec::density, above_zero),
-                      with_default("charge", &body_spec::charge)};
+                      with_default("charge", &body_spec::charge),
+                      member("tag", &body_spec::tag, body_tag),
+                      only_when_set("static", &body_spec::is_static)};
 }
 
 constexpr auto fields(std::type_identity<spawn>)
@@ -226,6 +257,12 @@ constexpr auto fields(std::type_identity<impulse>)
 {
     return std::tuple{member("ref", &impulse::ref), member("id", &impulse::id),
                       member("impulse", &impulse::impulse)};
+}
+
+constexpr auto fields(std::type_identity<set>)
+{
+    return std::tuple{member("ref", &set::ref), member("id", &set::id),
+                      member("position", &set::position), member("velocity", &set::velocity)};
 }
 
 constexpr auto fields(std::type_identity<remove>)
@@ -293,6 +330,12 @@ constexpr auto fields(std::type_identity<session_limits>)
                       member("max_bodies_per_client", &session_limits::max_bodies_per_client)};
 }
 
+constexpr auto fields(std::type_identity<room_permissions>)
+{
+    return std::tuple{member("push", &room_permissions::push),
+                      member("remove", &room_permissions::remove)};
+}
+
 constexpr auto fields(std::type_identity<snapshot_stream>)
 {
     return std::tuple{member("form", &snapshot_stream::form),
@@ -313,6 +356,7 @@ constexpr auto fields(std::type_identity<welcome>)
                       member("scene", &welcome::scene),
                       member("limits", &welcome::limits),
                       with_default("admin", &welcome::admin),
+                      with_default("permissions", &welcome::permissions),
                       member("snapshots", &welcome::snapshots)};
 }
 
@@ -334,7 +378,8 @@ constexpr auto fields(std::type_identity<body_columns>)
                       member("velocity", &body_columns::velocity),
                       member("radius", &body_columns::radius),
                       member("mass", &body_columns::mass),
-                      member("charge", &body_columns::charge)};
+                      member("charge", &body_columns::charge),
+                      member("tag", &body_columns::tag, tag_column)};
 }
 
 constexpr auto fields(std::type_identity<snapshot>)
@@ -352,7 +397,8 @@ constexpr auto fields(std::type_identity<compact_bodies>)
                       member("radius", &compact_bodies::radius),
                       member("mass", &compact_bodies::mass),
                       member("charge", &compact_bodies::charge),
-                      member("owner", &compact_bodies::owner)};
+                      member("owner", &compact_bodies::owner),
+                      member("tag", &compact_bodies::tag, tag_column)};
 }
 
 constexpr auto fields(std::type_identity<compact_moves>)
@@ -409,20 +455,28 @@ concept has_fields = requires
 
 template <class T> void check_together(T const&, location const&) {}
 
+/// A velocity (at `at`) must be slower than light.
+void below_light(vec3 const& velocity, location const& at)
+{
+    double const speed = std::hypot(velocity[0], velocity[1], velocity[2]);
+    if (!(speed < speed_of_light))
+        at.fail(error_code::bad_value, "a speed " +
+                                           (std::isfinite(speed) ? "of " + format(speed) + " m/s"
+                                                                 : std::string("beyond the range of a double")) +
+                                           " is not below the speed of light, " +
+                                           format(speed_of_light) + " m/s");
+}
+
 void check_together(body_spec const& body, location const& at)
 {
     if (body.mass && body.density)
         at.fail(error_code::bad_value, "give either mass or density, not both");
     if (!body.mass && !body.density)
         at.fail(error_code::missing_field, "needs a mass (kg) or a density (kg/m^3)");
-    double const speed = std::hypot(body.velocity[0], body.velocity[1], body.velocity[2]);
-    if (!(speed < speed_of_light))
-        (at / "velocity")
-            .fail(error_code::bad_value, "a speed " +
-                                             (std::isfinite(speed) ? "of " + format(speed) + " m/s"
-                                                                   : std::string("beyond the range of a double")) +
-                                             " is not below the speed of light, " +
-                                             format(speed_of_light) + " m/s");
+    below_light(body.velocity, at / "velocity");
+    if (body.is_static && body.velocity != vec3{})
+        (at / "velocity").fail(error_code::bad_value, "a static body cannot move; leave out the velocity "
+                                                      "or the static flag");
     if (body.density && !(body.radius > 0.0))
         (at / "density")
             .fail(error_code::bad_value, "needs a radius > 0 (a point mass has no volume; give "
@@ -432,6 +486,24 @@ void check_together(body_spec const& body, location const& at)
         at.fail(error_code::bad_value, "the mass this gives, " + format(mass) +
                                            " kg, is not a usable positive mass (it and its "
                                            "inverse must be finite and > 0)");
+}
+
+void check_together(set const& command, location const& at)
+{
+    if (!command.position && !command.velocity)
+        at.fail(error_code::missing_field, "needs a position (m), a velocity (m/s) or both");
+    if (command.velocity)
+        below_light(*command.velocity, at / "velocity");
+}
+
+void check_together(room_permissions const& p, location const& at)
+{
+    if (p.push != "anyone" && p.push != "owner" && p.push != "admins")
+        (at / "push").fail(error_code::bad_value, "must be \"anyone\", \"owner\" or \"admins\", got " +
+                                                      dump(json(shortened(p.push))));
+    if (p.remove != "owner" && p.remove != "admins")
+        (at / "remove").fail(error_code::bad_value, "must be \"owner\" or \"admins\", got " +
+                                                        dump(json(shortened(p.remove))));
 }
 
 void check_together(body_columns const& bodies, location const& at)
@@ -452,6 +524,8 @@ void check_together(body_columns const& bodies, location const& at)
         expect(bodies.mass->size(), "mass", 1);
     if (bodies.charge)
         expect(bodies.charge->size(), "charge", 1);
+    if (bodies.tag)
+        expect(bodies.tag->size(), "tag", 1);
 }
 
 void check_together(snapshot_request const& request, location const& at)
@@ -508,6 +582,8 @@ void check_together(compact_bodies& bodies, location const& at)
     check_sizes(bodies.owner.size(), n, at / "owner");
     if (bodies.charge)
         check_sizes(bodies.charge->size(), n, at / "charge");
+    if (bodies.tag)
+        check_sizes(bodies.tag->size(), n, at / "tag");
     for (std::size_t i = 0; i < n; ++i) {
         at_least_zero(bodies.radius[i], at / "radius" / i);
         at_least_zero(bodies.mass[i], at / "mass" / i);
@@ -768,13 +844,15 @@ std::variant<Types...> read_message(json const& doc, std::type_identity<std::var
     };
     (read_if_named(std::type_identity<Types>{}), ...);
     if (!message) {
-        std::string known;
+        std::vector<std::string_view> names; // each once: "snapshot" names two types
         auto const add_known = [&](std::string_view t) {
-            if (known.find(std::string(t) + ",") == std::string::npos &&
-                !known.ends_with(std::string(t)))
-                known += (known.empty() ? "" : ", ") + std::string(t);
+            if (std::find(names.begin(), names.end(), t) == names.end())
+                names.push_back(t);
         };
         (add_known(Types::type), ...);
+        std::string known;
+        for (std::string_view const t : names)
+            known += (known.empty() ? "" : ", ") + std::string(t);
         (root / "type")
             .fail(error_code::unknown_type, "unknown message type " + dump(json(shortened(name))) +
                                                 " (known: " + known + ")");
@@ -1047,6 +1125,8 @@ void write_fields(json& out, T const& value)
         if constexpr (optional_traits<M>::is_optional) {
             if (member)
                 out[std::string(f.name)] = to_value(*member);
+        } else if (f.written_only_when_set && member == M{}) {
+            return;
         } else {
             out[std::string(f.name)] = to_value(member);
         }
@@ -1115,6 +1195,10 @@ std::string encode(reset const& message)
     return encode_message(message);
 }
 std::string encode(load_scene const& message)
+{
+    return encode_message(message);
+}
+std::string encode(set const& message)
 {
     return encode_message(message);
 }
@@ -1237,6 +1321,33 @@ public:
             text_start = static_cast<std::size_t>(end_ - buffer_.get());
             write_number(values[i]);
             text_size = static_cast<std::size_t>(end_ - buffer_.get()) - text_start;
+        }
+        raw(']');
+    }
+
+    /// Strings (tags: short, without control characters), escaped as JSON wants; "" for none.
+    void string_column(std::string_view name, std::vector<std::string> const& values)
+    {
+        open_column(name);
+        for (std::size_t i = 0; i < values.size(); ++i) {
+            if (i > 0)
+                raw(',');
+            raw('"');
+            for (char const c : values[i]) {
+                auto const u = static_cast<unsigned char>(c);
+                if (c == '"' || c == '\\') {
+                    raw('\\');
+                    raw(c);
+                } else if (u < 0x20) { // never in a valid tag; escaped rather than sent raw
+                    static constexpr char hex[] = "0123456789abcdef";
+                    raw("\\u00");
+                    raw(hex[static_cast<std::size_t>(u >> 4U)]);
+                    raw(hex[static_cast<std::size_t>(u & 0xFU)]);
+                } else {
+                    raw(c);
+                }
+            }
+            raw('"');
         }
         raw(']');
     }
@@ -1406,6 +1517,10 @@ std::string encode(snapshot const& message)
         w.raw(",");
         w.column("charge", *b.charge);
     }
+    if (b.tag) {
+        w.raw(",");
+        w.string_column("tag", *b.tag);
+    }
     w.raw("}}");
     return w.take();
 }
@@ -1434,6 +1549,10 @@ void write_bodies(snapshot_writer& w, compact_bodies const& b)
     }
     w.raw(",");
     w.column("owner", b.owner);
+    if (b.tag) {
+        w.raw(",");
+        w.string_column("tag", *b.tag);
+    }
     w.raw("}");
 }
 

@@ -35,6 +35,7 @@ std::string encode(pause const& message);
 std::string encode(resume const& message);
 std::string encode(reset const& message);
 std::string encode(load_scene const& message);
+std::string encode(set const& message);
 std::string encode(client_message const& message);
 
 std::string encode(welcome const& message);

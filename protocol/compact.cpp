@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <numeric>
+#include <string>
 #include <utility>
 #include <vector>
 
@@ -17,6 +18,14 @@ std::int64_t floor_to_integer(double y)
 {
     auto const k = static_cast<std::int64_t>(y);
     return static_cast<double>(k) > y ? k - 1 : k;
+}
+
+/// A tag column of bodies none of which has a tag is left off: the column is there only
+/// when some body has a tag (PROTOCOL.md), so that equal states compare equal.
+void drop_empty_tags(compact_bodies& b)
+{
+    if (b.tag && std::all_of(b.tag->begin(), b.tag->end(), [](std::string const& t) { return t.empty(); }))
+        b.tag.reset();
 }
 
 } // namespace
@@ -52,6 +61,8 @@ compact_state quantize(snapshot const& full, std::span<body_owner const> owners,
         c.radius = b.radius;
         c.mass = b.mass ? *b.mass : std::vector<double>(n, 0.0);
         c.charge = b.charge;
+        if (b.tag && b.tag->size() == n)
+            c.tag = b.tag;
     } else {
         std::vector<std::uint32_t> order(n);
         std::iota(order.begin(), order.end(), 0U);
@@ -64,6 +75,9 @@ compact_state quantize(snapshot const& full, std::span<body_owner const> owners,
         c.mass.resize(n);
         if (b.charge)
             c.charge.emplace(n);
+        bool const tags = b.tag && b.tag->size() == n;
+        if (tags)
+            c.tag.emplace(n);
         for (std::size_t k = 0; k < n; ++k) {
             std::size_t const i = order[k];
             c.id[k] = b.id[i];
@@ -75,8 +89,11 @@ compact_state quantize(snapshot const& full, std::span<body_owner const> owners,
             c.mass[k] = b.mass ? (*b.mass)[i] : 0.0;
             if (b.charge)
                 (*c.charge)[k] = (*b.charge)[i];
+            if (tags)
+                (*c.tag)[k] = (*b.tag)[i];
         }
     }
+    drop_empty_tags(c);
     c.owner.assign(n, 0);
     std::size_t next_owner = 0;
     for (std::size_t k = 0; k < n && next_owner < owners.size(); ++k) {
@@ -139,6 +156,13 @@ void append_body(compact_bodies& to, compact_bodies const& from, std::size_t i)
     to.owner.push_back(from.owner[i]);
     if (to.charge && from.charge)
         to.charge->push_back((*from.charge)[i]);
+    // The tag column starts with the first tagged body ("" for those before it).
+    std::string const none;
+    std::string const& tag = from.tag && i < from.tag->size() ? (*from.tag)[i] : none;
+    if (!to.tag && !tag.empty())
+        to.tag.emplace(to.id.size() - 1);
+    if (to.tag)
+        to.tag->push_back(tag);
 }
 
 void reserve(compact_bodies& b, std::size_t n, bool charges)
@@ -232,6 +256,7 @@ std::optional<compact_snapshot> delta(compact_state const& base, compact_state c
                          .vanished = std::nullopt};
     if (!moved.runs.empty())
         out.moved = std::move(moved);
+    drop_empty_tags(appeared);
     if (appeared.size() > 0)
         out.appeared = std::move(appeared);
     if (!vanished.empty())
@@ -262,6 +287,7 @@ apply_result apply_compact(compact_snapshot const& message, compact_state const*
         compact_state s{.tick = message.tick, .time = message.time, .paused = message.paused,
                         .faults = message.faults,
                         .q = {(*message.q)[0], (*message.q)[1]}, .bodies = *message.bodies};
+        drop_empty_tags(s.bodies);
         return {std::move(s), {}};
     }
     if (message.form != "delta" || !message.base)
@@ -348,6 +374,7 @@ apply_result apply_compact(compact_snapshot const& message, compact_state const*
             return refused("appeared body " + std::to_string(added.id[b]) + " is already held");
         }
     }
+    drop_empty_tags(out);
     return {std::move(s), {}};
 }
 
@@ -367,6 +394,7 @@ snapshot to_snapshot(compact_state const& state)
     b.radius = c.radius;
     b.mass = c.mass;
     b.charge = c.charge;
+    b.tag = c.tag;
     return s;
 }
 

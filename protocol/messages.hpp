@@ -70,6 +70,9 @@ struct hello
     bool operator==(hello const&) const = default;
 };
 
+/// The longest body tag, in bytes of UTF-8.
+inline constexpr std::size_t max_body_tag_bytes = 32;
+
 /// A body to create. Decoding guarantees exactly one of mass and density is set.
 struct body_spec
 {
@@ -79,6 +82,10 @@ struct body_spec
     std::optional<double> mass;    ///< kg, > 0
     std::optional<double> density; ///< kg/m³, > 0; needs radius > 0; mass = density·4/3·π·r³
     double charge = 0.0;           ///< C
+    /// A short label shown with the body: 1 to max_body_tag_bytes bytes, no control characters
+    std::optional<std::string> tag;
+    /// Never moves (inverse mass 0): an obstacle. Only an admin may spawn one; velocity zero.
+    bool is_static = false;
 
     bool operator==(body_spec const&) const = default;
 };
@@ -111,6 +118,18 @@ struct impulse
     vec3 impulse{};       ///< N·s (kg·m/s)
 
     bool operator==(struct impulse const&) const = default;
+};
+
+/// Set a body's position and/or velocity (at least one) at the start of the next tick.
+struct set
+{
+    static constexpr std::string_view type = "set";
+    std::uint64_t ref = 0;
+    std::uint64_t id = 0;
+    std::optional<vec3> position; ///< m
+    std::optional<vec3> velocity; ///< m/s, speed below speed_of_light
+
+    bool operator==(set const&) const = default;
 };
 
 struct remove
@@ -181,7 +200,7 @@ struct load_scene
 };
 
 using client_message =
-    std::variant<hello, spawn, impulse, remove, ping, pause, resume, reset, load_scene>;
+    std::variant<hello, spawn, impulse, remove, ping, pause, resume, reset, load_scene, set>;
 
 // Server -> client --------------------------------------------------------------------------
 
@@ -239,6 +258,17 @@ struct session_limits
     bool operator==(session_limits const&) const = default;
 };
 
+/// Who may act on whose bodies in a room (its scene's `permissions`). An admin always may.
+struct room_permissions
+{
+    /// impulse and set: "anyone", "owner" (the client that spawned the body) or "admins"
+    std::string push = "anyone";
+    /// remove: "owner" or "admins"
+    std::string remove = "owner";
+
+    bool operator==(room_permissions const&) const = default;
+};
+
 /// The snapshots a connection is sent: the answer to hello.snapshots.
 struct snapshot_stream
 {
@@ -265,6 +295,7 @@ struct welcome
     scene_geometry scene;
     session_limits limits;
     bool admin = false; ///< this connection may send admin commands
+    room_permissions permissions; ///< who may push and remove whose bodies here
     /// What this connection's snapshots are; only in a welcome answering hello.snapshots.
     std::optional<snapshot_stream> snapshots;
 
@@ -302,6 +333,8 @@ struct body_columns
     std::vector<double> radius;                ///< m
     std::optional<std::vector<double>> mass;   ///< kg, when the scene has masses to show
     std::optional<std::vector<double>> charge; ///< C, when the scene has charges
+    /// Each body's tag, "" for none; only when some body has one
+    std::optional<std::vector<std::string>> tag;
 
     std::size_t size() const { return id.size(); }
     bool operator==(body_columns const&) const = default;
@@ -345,6 +378,8 @@ struct compact_bodies
     std::vector<double> mass;           ///< kg
     std::optional<std::vector<double>> charge; ///< C, when the scene has charges
     std::vector<std::uint64_t> owner;   ///< the client that spawned it; 0: the scene's
+    /// Each body's tag, "" for none; only when some body here has one
+    std::optional<std::vector<std::string>> tag;
 
     std::size_t size() const { return id.size(); }
     bool operator==(compact_bodies const&) const = default;

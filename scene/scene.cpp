@@ -184,9 +184,25 @@ double read_mass(json const& obj, location const& at, double radius, bool is_sta
     at.fail("needs a mass (kg) or a density (kg/m^3)");
 }
 
-physics::body_desc read_body(json const& value, location const& at)
+/// A body's tag: 1 to max_tag_bytes bytes of UTF-8 without control characters (the protocol's
+/// rule for spawn.body.tag: every client is shown it).
+std::string read_tag(json const& value, location const& at)
 {
-    object(value, at, {"position", "velocity", "radius", "mass", "density", "charge", "static"});
+    std::string const tag = text(value, at);
+    if (tag.empty() || tag.size() > max_tag_bytes)
+        at.fail("a body's tag must be 1 to " + std::to_string(max_tag_bytes) + " bytes of UTF-8, got " +
+                std::to_string(tag.size()));
+    for (char const ch : tag)
+        if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
+            at.fail("a body's tag must not hold control characters (found the byte " +
+                    std::to_string(static_cast<unsigned>(c)) + ")");
+    return tag;
+}
+
+physics::body_desc read_body(json const& value, location const& at, std::string& tag)
+{
+    object(value, at, {"position", "velocity", "radius", "mass", "density", "charge", "static", "tag"});
+    tag = optional_field(value, "tag", at, std::string(), read_tag);
     physics::body_desc b;
     b.position = vector3(required(value, "position", at), at / "position");
     b.is_static = optional_field(value, "static", at, false, boolean);
@@ -495,11 +511,34 @@ snapshot_settings read_snapshots(json const& value, location const& at)
     return s;
 }
 
+room_permissions read_permissions(json const& value, location const& at)
+{
+    object(value, at, {"push", "remove"});
+    room_permissions p;
+    if (auto const* push = find(value, "push")) {
+        std::string const rule = text(*push, at / "push");
+        if (rule == "owner")
+            p.push = push_rule::owner;
+        else if (rule == "admins")
+            p.push = push_rule::admins;
+        else if (rule != "anyone")
+            (at / "push").fail("unknown rule '" + rule + "' (known: anyone, owner, admins)");
+    }
+    if (auto const* remove = find(value, "remove")) {
+        std::string const rule = text(*remove, at / "remove");
+        if (rule == "admins")
+            p.remove = remove_rule::admins;
+        else if (rule != "owner")
+            (at / "remove").fail("unknown rule '" + rule + "' (known: owner, admins)");
+    }
+    return p;
+}
+
 scene read_scene(json const& doc, location const& at)
 {
     object(doc, at,
            {"$schema", "name", "description", "dt", "substeps", "integrator", "tolerance", "forces",
-            "collisions", "walls", "box", "obstacles", "bodies", "generators", "snapshots"});
+            "collisions", "walls", "box", "obstacles", "bodies", "generators", "snapshots", "permissions"});
     scene s;
     s.name = optional_field(doc, "name", at, std::string("unnamed"), text);
     s.description = optional_field(doc, "description", at, std::string(), text);
@@ -556,8 +595,11 @@ scene read_scene(json const& doc, location const& at)
     if (auto const* bodies = find(doc, "bodies")) {
         if (!bodies->is_array())
             (at / "bodies").fail("must be an array of bodies, got " + describe(*bodies));
-        for (std::size_t i = 0; i < bodies->size(); ++i)
-            s.bodies.push_back(read_body((*bodies)[i], at / "bodies" / i));
+        for (std::size_t i = 0; i < bodies->size(); ++i) {
+            std::string tag;
+            s.bodies.push_back(read_body((*bodies)[i], at / "bodies" / i, tag));
+            s.body_tags.push_back(std::move(tag));
+        }
     }
     if (auto const* generators = find(doc, "generators")) {
         if (!generators->is_array())
@@ -575,6 +617,8 @@ scene read_scene(json const& doc, location const& at)
     }
     if (auto const* snapshots = find(doc, "snapshots"))
         s.snapshots = read_snapshots(*snapshots, at / "snapshots");
+    if (auto const* permissions = find(doc, "permissions"))
+        s.permissions = read_permissions(*permissions, at / "permissions");
     if (s.body_count() > max_scene_bodies)
         at.fail("creates " + std::to_string(s.body_count()) + " bodies, more than the limit of " +
                 std::to_string(max_scene_bodies));
@@ -680,6 +724,24 @@ scene load_scene(std::filesystem::path const& file, std::span<std::string const>
     std::ostringstream buffer;
     buffer << in.rdbuf();
     return parse_scene(buffer.str(), file.string(), overrides);
+}
+
+std::string_view name(push_rule rule)
+{
+    switch (rule) {
+    case push_rule::owner:
+        return "owner";
+    case push_rule::admins:
+        return "admins";
+    case push_rule::anyone:
+        break;
+    }
+    return "anyone";
+}
+
+std::string_view name(remove_rule rule)
+{
+    return rule == remove_rule::admins ? "admins" : "owner";
 }
 
 physics::world build_world(scene const& s)

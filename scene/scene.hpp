@@ -111,6 +111,33 @@ struct snapshot_settings
     static constexpr double max_quantum = 1e6;
 };
 
+/// Who may push (impulse, set) a body: anyone, its owner (the client that spawned it; a
+/// scene's bodies have none), or only admins. An admin always may.
+enum class push_rule {
+    anyone,
+    owner,
+    admins,
+};
+
+/// Who may remove a body: its owner, or only admins. An admin always may.
+enum class remove_rule {
+    owner,
+    admins,
+};
+
+std::string_view name(push_rule rule);   ///< "anyone", "owner", "admins"
+std::string_view name(remove_rule rule); ///< "owner", "admins"
+
+/// A scene's `permissions`: the defaults are a room's rules without any.
+struct room_permissions
+{
+    push_rule push = push_rule::anyone;
+    remove_rule remove = remove_rule::owner;
+};
+
+/// The longest tag a body may carry, in bytes of UTF-8 (as the protocol's spawn.body.tag).
+inline constexpr std::size_t max_tag_bytes = 32;
+
 /// A validated scene: everything a world needs, in engine units.
 struct scene
 {
@@ -126,8 +153,11 @@ struct scene
     std::optional<physics::aabb> box; ///< the `box` shortcut's region, when given
     std::vector<obstacle_settings> obstacles;
     std::vector<physics::body_desc> bodies;
+    /// bodies[i]'s tag, "" for none (the world's first bodies, in this order, are these)
+    std::vector<std::string> body_tags;
     std::vector<body_generator> generators;
     snapshot_settings snapshots;
+    room_permissions permissions;
 
     /// Explicit bodies plus every generator's count.
     std::uint64_t body_count() const;

@@ -49,6 +49,8 @@ protocol::welcome make_welcome(std::string const& room_name, scene::scene const&
     welcome.scene.bounds = {to_wire(bounds.centre), bounds.radius};
     welcome.limits = {config.client.max_message_bytes, config.max_bodies,
                       static_cast<std::uint64_t>(config.client.commands_per_second)};
+    welcome.permissions = {std::string(scene::name(s.permissions.push)),
+                           std::string(scene::name(s.permissions.remove))};
     return welcome;
 }
 
@@ -120,8 +122,20 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
     if (restored) {
         next_wire_id_ = restored->next_wire_id;
         counters_.ticks = restored->tick;
+    } else {
+        tag_scene_bodies(scene_);
     }
     counters_.bodies = world_.bodies().size();
+}
+
+void room::tag_scene_bodies(scene::scene const& s)
+{
+    // build_world adds the scene's bodies first, in order, to a world not yet stepped: the
+    // world's first slots are the scene's bodies.
+    auto const ids = world_.bodies().ids();
+    for (std::size_t i = 0; i < s.body_tags.size() && i < ids.size(); ++i)
+        if (!s.body_tags[i].empty())
+            tag_of_wire_id_[wire_id_of_index_[ids[i].index]] = s.body_tags[i];
 }
 
 checkpoint room::take_checkpoint() const
@@ -447,6 +461,9 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from, bool adm
     auto const refuse_spawn = [&](error_code code, std::string message) {
         refuse(traffic_, from, spawn.ref, code, std::move(message));
     };
+    if (body.is_static && !admin)
+        return refuse_spawn(error_code::forbidden, "/body/static: only an admin may spawn a static body "
+                                                   "(an obstacle nothing moves)");
     if (world_.bodies().size() >= settings_.max_bodies)
         return refuse_spawn(error_code::room_full, "the room holds its limit of " +
                                                  std::to_string(settings_.max_bodies) + " bodies");
@@ -459,38 +476,15 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from, bool adm
                                             "one client may have; remove one to spawn another",
                                             own->second));
     }
-    physics::vec3 const x = from_wire(body.position);
-    for (std::size_t k = 0; k < world_.walls().size(); ++k) {
-        physics::plane const& p = world_.walls()[k].surface;
-        double const height = p.normal.dot(x) - p.offset; // m above the wall
-        if (height < 0.0)
-            return refuse_spawn(error_code::outside_world,
-                          fmt::format("/body/position: {} is behind wall {} (by {} m)",
-                                      describe(body.position), k, -height));
-        if (height < body.radius)
-            return refuse_spawn(error_code::overlaps_wall,
-                          fmt::format("/body/position: a sphere of radius {} m at {} crosses wall {}",
-                                      body.radius, describe(body.position), k));
-    }
-    if (body.radius > 0.0) {
-        for (std::size_t k = 0; k < world_.obstacles().size(); ++k)
-            if (physics::sphere_vs_obb(x, body.radius, world_.obstacles()[k].box).touching)
-                return refuse_spawn(error_code::overlaps_wall,
-                              fmt::format("/body/position: a sphere of radius {} m at {} "
-                                          "overlaps obstacle {}",
-                                          body.radius, describe(body.position), k));
-    }
-    if (auto const other = overlapped_sphere(x, body.radius))
-        return refuse_spawn(error_code::overlaps_body,
-                            fmt::format("/body/position: a sphere of radius {} m at {} overlaps "
-                                        "body {}; spheres collide here, and one inside another "
-                                        "cannot be", body.radius, describe(body.position), *other));
+    if (auto refusal = placement_refusal(body.position, body.radius, "/body/position"))
+        return refuse_spawn(refusal->code, std::move(refusal->message));
     physics::body_desc desc;
-    desc.position = x;
+    desc.position = from_wire(body.position);
     desc.velocity = from_wire(body.velocity);
     desc.radius = body.radius;
     desc.charge = body.charge;
     desc.mass = protocol::mass_of(body); // usable: the decoder checked it
+    desc.is_static = body.is_static;     // an admin's: the decoder checked it does not move
     // No force may be one no step can hold: beyond a double, or a change of speed by c in
     // one step. A step that still fails is recovered from (step_world), but it costs the
     // bodies that made it fail.
@@ -511,14 +505,18 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from, bool adm
     }
     owner_of_wire_id_.emplace(id, from.client_id());
     ++bodies_of_client_[from.client_id()];
+    if (body.tag)
+        tag_of_wire_id_.emplace(id, *body.tag);
     from.send_reply(share(protocol::encode(protocol::ack{spawn.ref, counters_.ticks + 1, id})));
 }
 
-void room::apply(protocol::impulse const& impulse, websocket_session& from, bool)
+void room::apply(protocol::impulse const& impulse, websocket_session& from, bool admin)
 {
     auto const body = find_body(impulse.id, impulse.ref, from);
     if (!body)
         return;
+    if (auto why = permission_refusal(impulse.id, from.client_id(), admin, true))
+        return refuse(traffic_, from, impulse.ref, error_code::forbidden, std::move(*why));
     physics::vec3 const j = from_wire(impulse.impulse);
     std::size_t const slot = *world_.bodies().slot_of(*body);
     physics::vec3 const v =
@@ -539,18 +537,42 @@ void room::apply(protocol::remove const& remove, websocket_session& from, bool a
     auto const body = find_body(remove.id, remove.ref, from);
     if (!body)
         return;
-    auto const owner = owner_of_wire_id_.find(remove.id);
-    bool const own = owner != owner_of_wire_id_.end() && owner->second == from.client_id();
-    if (!own && !admin)
-        return refuse(traffic_, from, remove.ref, error_code::forbidden,
-                      fmt::format("/id: body {} {}; a client may remove only the bodies it "
-                                  "spawned (an admin may remove any)",
-                                  remove.id,
-                                  owner == owner_of_wire_id_.end() ? "came with the scene"
-                                                                   : "was spawned by another client"));
+    if (auto why = permission_refusal(remove.id, from.client_id(), admin, false))
+        return refuse(traffic_, from, remove.ref, error_code::forbidden, std::move(*why));
     world_.remove_body(*body);
     forget_body(remove.id);
     from.send_reply(share(protocol::encode(protocol::ack{remove.ref, counters_.ticks + 1, {}})));
+}
+
+void room::apply(protocol::set const& set, websocket_session& from, bool admin)
+{
+    auto const body = find_body(set.id, set.ref, from);
+    if (!body)
+        return;
+    if (auto why = permission_refusal(set.id, from.client_id(), admin, true))
+        return refuse(traffic_, from, set.ref, error_code::forbidden, std::move(*why));
+    std::size_t const slot = *world_.bodies().slot_of(*body);
+    bool const is_static = world_.bodies().inverse_masses()[slot] == 0.0;
+    if (set.velocity && is_static && *set.velocity != protocol::vec3{})
+        return refuse(traffic_, from, set.ref, error_code::bad_value,
+                      fmt::format("/velocity: body {} is static: it never moves, so its velocity "
+                                  "stays [0, 0, 0]", set.id));
+    // Where spawn may put a sphere of this radius, this body may go; only itself is not in
+    // its way.
+    if (set.position)
+        if (auto refusal = placement_refusal(*set.position, world_.bodies().radii()[slot], "/position", slot))
+            return refuse(traffic_, from, set.ref, refusal->code, std::move(refusal->message));
+    std::optional<physics::vec3> position, velocity;
+    if (set.position)
+        position = from_wire(*set.position);
+    if (set.velocity)
+        velocity = from_wire(*set.velocity);
+    try {
+        world_.set_state(*body, position, velocity);
+    } catch (std::invalid_argument const& e) { // the decoder and the checks above leave none
+        return refuse(traffic_, from, set.ref, error_code::bad_value, std::string("/: ") + e.what());
+    }
+    from.send_reply(share(protocol::encode(protocol::ack{set.ref, counters_.ticks + 1, {}})));
 }
 
 // The admin commands. The session refuses them from anyone else before they are queued; the
@@ -645,6 +667,7 @@ void room::replace_world(scene::scene s)
     body_of_wire_id_.clear();
     owner_of_wire_id_.clear();
     bodies_of_client_.clear();
+    tag_of_wire_id_.clear();
     // New ids for every body: an id names one body for the life of the room.
     for (physics::body_id const id : world_.bodies().ids()) {
         std::uint64_t const wire_id = next_wire_id_++;
@@ -653,6 +676,7 @@ void room::replace_world(scene::scene s)
         wire_id_of_index_[id.index] = wire_id;
         body_of_wire_id_.emplace(wire_id, id);
     }
+    tag_scene_bodies(s);
     counters_.bodies = world_.bodies().size();
     scene_ = std::move(s);
 }
@@ -672,21 +696,92 @@ std::uint64_t room::wire_id_of_slot(std::size_t slot) const
     return wire_id_of_index_[world_.bodies().ids()[slot].index];
 }
 
-std::optional<std::uint64_t> room::overlapped_sphere(physics::vec3 const& x, double radius) const
+std::optional<std::uint64_t> room::overlapped_sphere(physics::vec3 const& x, double radius,
+                                                     std::optional<std::size_t> self) const
 {
     if (!(radius > 0.0) || world_.settings().collisions.mode == physics::collision_mode::off)
         return std::nullopt; // point masses never collide; nor does anything with collisions off
     auto const positions = world_.bodies().positions();
     auto const radii = world_.bodies().radii();
     for (std::size_t i = 0; i < positions.size(); ++i)
-        if (radii[i] > 0.0 && physics::spheres_overlap(x, radius, positions[i], radii[i]))
+        if (i != self && radii[i] > 0.0 && physics::spheres_overlap(x, radius, positions[i], radii[i]))
             return wire_id_of_slot(i);
     return std::nullopt;
+}
+
+std::optional<protocol::error> room::placement_refusal(protocol::vec3 const& position, double radius,
+                                                       std::string_view pointer,
+                                                       std::optional<std::size_t> self) const
+{
+    auto const refusal = [](error_code code, std::string message) {
+        return protocol::error{std::nullopt, code, std::move(message)};
+    };
+    physics::vec3 const x = from_wire(position);
+    for (std::size_t k = 0; k < world_.walls().size(); ++k) {
+        physics::plane const& p = world_.walls()[k].surface;
+        double const height = p.normal.dot(x) - p.offset; // m above the wall
+        if (height < 0.0)
+            return refusal(error_code::outside_world, fmt::format("{}: {} is behind wall {} (by {} m)",
+                                                                  pointer, describe(position), k, -height));
+        if (height < radius)
+            return refusal(error_code::overlaps_wall,
+                           fmt::format("{}: a sphere of radius {} m at {} crosses wall {}", pointer,
+                                       radius, describe(position), k));
+    }
+    if (radius > 0.0) {
+        for (std::size_t k = 0; k < world_.obstacles().size(); ++k)
+            if (physics::sphere_vs_obb(x, radius, world_.obstacles()[k].box).touching)
+                return refusal(error_code::overlaps_wall,
+                               fmt::format("{}: a sphere of radius {} m at {} overlaps obstacle {}",
+                                           pointer, radius, describe(position), k));
+    }
+    if (auto const other = overlapped_sphere(x, radius, self))
+        return refusal(error_code::overlaps_body,
+                       fmt::format("{}: a sphere of radius {} m at {} overlaps body {}; spheres "
+                                   "collide here, and one inside another cannot be",
+                                   pointer, radius, describe(position), *other));
+    return std::nullopt;
+}
+
+std::optional<std::string> room::permission_refusal(std::uint64_t wire_id, std::uint64_t client,
+                                                    bool admin, bool push) const
+{
+    if (admin)
+        return std::nullopt; // whatever the rules
+    auto const owner = owner_of_wire_id_.find(wire_id);
+    bool const own = owner != owner_of_wire_id_.end() && owner->second == client;
+    std::string_view const whose = owner == owner_of_wire_id_.end() ? "came with the scene"
+                                   : own                            ? "is this client's"
+                                                                    : "was spawned by another client";
+    if (push) {
+        switch (scene_.permissions.push) {
+        case scene::push_rule::anyone:
+            return std::nullopt;
+        case scene::push_rule::owner:
+            if (own)
+                return std::nullopt;
+            return fmt::format("/id: body {} {}; this room's push rule is \"owner\": only the client "
+                               "that spawned a body (or an admin) may push it (impulse, set)",
+                               wire_id, whose);
+        case scene::push_rule::admins:
+            break;
+        }
+        return std::string("/id: this room's push rule is \"admins\": only an admin may push a body "
+                           "(impulse, set)");
+    }
+    if (scene_.permissions.remove == scene::remove_rule::admins)
+        return std::string("/id: this room's remove rule is \"admins\": only an admin may remove a body");
+    if (own)
+        return std::nullopt;
+    return fmt::format("/id: body {} {}; this room's remove rule is \"owner\": a client may remove "
+                       "only the bodies it spawned (an admin may remove any)",
+                       wire_id, whose);
 }
 
 void room::forget_body(std::uint64_t wire_id)
 {
     body_of_wire_id_.erase(wire_id);
+    tag_of_wire_id_.erase(wire_id);
     auto const owner = owner_of_wire_id_.find(wire_id);
     if (owner != owner_of_wire_id_.end()) {
         auto const count = bodies_of_client_.find(owner->second);
@@ -822,6 +917,12 @@ protocol::snapshot room::copy_snapshot() const
     columns.mass.emplace(bodies.masses().begin(), bodies.masses().end()); // for J = m·Δv
     if (send_charges_)
         columns.charge.emplace(bodies.charges().begin(), bodies.charges().end());
+    if (!tag_of_wire_id_.empty()) { // the column only when some body has a tag
+        columns.tag.emplace(n);
+        for (std::size_t i = 0; i < n; ++i)
+            if (auto const tag = tag_of_wire_id_.find(columns.id[i]); tag != tag_of_wire_id_.end())
+                (*columns.tag)[i] = tag->second;
+    }
     return snapshot;
 }
 

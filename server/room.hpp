@@ -161,6 +161,7 @@ private:
     void apply(protocol::spawn const& spawn, websocket_session& from, bool admin);
     void apply(protocol::impulse const& impulse, websocket_session& from, bool admin);
     void apply(protocol::remove const& remove, websocket_session& from, bool admin);
+    void apply(protocol::set const& set, websocket_session& from, bool admin);
     void apply(protocol::pause const& pause, websocket_session& from, bool admin);
     void apply(protocol::resume const& resume, websocket_session& from, bool admin);
     void apply(protocol::reset const& reset, websocket_session& from, bool admin);
@@ -206,8 +207,23 @@ private:
 
     std::uint64_t add_body(physics::body_desc const& desc); ///< the new body's wire id
     std::uint64_t wire_id_of_slot(std::size_t slot) const;
-    /// The sphere that a sphere at x of this radius would overlap, when spheres collide.
-    std::optional<std::uint64_t> overlapped_sphere(physics::vec3 const& x, double radius) const;
+    /// The sphere that a sphere at x of this radius would overlap, when spheres collide; the
+    /// body in slot `self` (one being moved) is not looked at.
+    std::optional<std::uint64_t> overlapped_sphere(physics::vec3 const& x, double radius,
+                                                   std::optional<std::size_t> self = std::nullopt) const;
+    /// Why a sphere of this radius cannot be at x (spawn's checks, for a spawn and a set):
+    /// behind a wall (outside_world), across one or in an obstacle (overlaps_wall), in
+    /// another sphere but the one in slot `self` (overlaps_body); `pointer` names the field
+    /// in the message. Nothing when it can.
+    std::optional<protocol::error> placement_refusal(protocol::vec3 const& position, double radius,
+                                                     std::string_view pointer,
+                                                     std::optional<std::size_t> self = std::nullopt) const;
+    /// Why `client` may not push (impulse, set; push) or remove (push false) body `wire_id`
+    /// under the scene's permissions: the message of a `forbidden`. Nothing when it may.
+    std::optional<std::string> permission_refusal(std::uint64_t wire_id, std::uint64_t client,
+                                                  bool admin, bool push) const;
+    /// The tags of the scene's bodies, as build_world put them in the world's first slots.
+    void tag_scene_bodies(scene::scene const& s);
     /// Drops a body the world no longer holds from the ids, owners and counts.
     void forget_body(std::uint64_t wire_id);
     /// Removes the bodies a failed step names, and records the fault.
@@ -257,6 +273,8 @@ private:
     // owner. A body outlives its client; its count is dropped when the body goes.
     std::unordered_map<std::uint64_t, std::uint64_t> owner_of_wire_id_; ///< wire id -> client id
     std::unordered_map<std::uint64_t, std::size_t> bodies_of_client_;   ///< client id -> bodies
+    /// The tagged bodies' tags (a spawn's or the scene's); sent with their constants.
+    std::unordered_map<std::uint64_t, std::string> tag_of_wire_id_; ///< wire id -> tag
 
     std::vector<command> pending_commands_;
     struct member

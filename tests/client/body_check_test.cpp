@@ -39,6 +39,30 @@ TEST(BodyCheck, PositionWithinTheToleranceOnEveryCheckedComponent)
     EXPECT_TRUE(check_body(at(17, {json(), json(), 3}, 0), two_bodies(), vars).passed);
 }
 
+// A tag is a string (variables interpolated) or null for none; the body's JSON has it, so a
+// script may keep it.
+TEST(BodyCheck, TagsAreComparedAndKept)
+{
+    variables vars;
+    vars.set("ball", "ann's ball");
+    protocol::snapshot s = two_bodies();
+    body_expectation e;
+    e.id = 17;
+    e.tag = json(nullptr);
+    EXPECT_TRUE(check_body(e, s, vars).passed) << "no tag column: no tag";
+    s.bodies.tag = std::vector<std::string>{"", "$ball"};
+    EXPECT_FALSE(check_body(e, s, vars).passed);
+    s.bodies.tag = std::vector<std::string>{"", "ann's ball"};
+    e.tag = json("$ball");
+    body_check const check = check_body(e, s, vars);
+    EXPECT_TRUE(check.passed) << check.arrived;
+    EXPECT_EQ(check.body.at("tag"), "ann's ball");
+    e.id = 4;
+    EXPECT_FALSE(check_body(e, s, vars).passed);
+    EXPECT_EQ(check_body(e, s, vars).arrived, "body 4 at tick 100, tag null");
+    EXPECT_EQ(check_body(e, s, vars).body.at("tag"), json());
+}
+
 TEST(BodyCheck, ExpressionsSeeTheSnapshotsTickAndTime)
 {
     variables vars;

@@ -182,6 +182,46 @@ TEST(Connection, WaitForSnapshotFindsTheSpawnedBodyWithinTheTicks)
     EXPECT_GE(seen.snapshot->tick, std::get<protocol::ack>(*ack).tick);
 }
 
+// A spawn's tag reaches the decoded snapshots of both forms; a set moves the body under the
+// same id, and a refused one is answered with its error.
+TEST(Connection, SendsSetAndTagsAndDecodesTheTags)
+{
+    running_server s;
+    connection full(s.url());
+    connection_options compact_options;
+    compact_options.snapshots = protocol::snapshot_request{.form = "compact", .rate = std::nullopt};
+    connection compact(s.url(), compact_options);
+    protocol::spawn tagged = ball_at({1, 1, 1});
+    tagged.body.tag = "ann's \"ball\"";
+    auto const ack = full.await_reply(full.send(tagged), 10s);
+    ASSERT_TRUE(ack && std::holds_alternative<protocol::ack>(*ack));
+    std::uint64_t const id = *std::get<protocol::ack>(*ack).id;
+    auto const moved = full.await_reply(
+        full.send(protocol::set{.ref = 0, .id = id, .position = protocol::vec3{-2, 0, 4}, .velocity = protocol::vec3{0, 0, 0}}),
+        10s);
+    ASSERT_TRUE(moved && std::holds_alternative<protocol::ack>(*moved));
+    auto const set_tick = std::get<protocol::ack>(*moved).tick;
+    auto const tag_of = [id](protocol::snapshot const& x) -> std::optional<std::string> {
+        auto const at = std::find(x.bodies.id.begin(), x.bodies.id.end(), id);
+        if (at == x.bodies.id.end() || !x.bodies.tag)
+            return std::nullopt;
+        return (*x.bodies.tag)[static_cast<std::size_t>(at - x.bodies.id.begin())];
+    };
+    for (connection* c : {&full, &compact}) {
+        auto const seen = c->wait_for_snapshot(
+            [&](protocol::snapshot const& x) { return x.tick >= set_tick && tag_of(x).has_value(); }, 600, 10s);
+        ASSERT_EQ(seen.outcome, wait_outcome::matched);
+        EXPECT_EQ(tag_of(*seen.snapshot), "ann's \"ball\"");
+        auto const i = static_cast<std::size_t>(
+            std::find(seen.snapshot->bodies.id.begin(), seen.snapshot->bodies.id.end(), id) - seen.snapshot->bodies.id.begin());
+        EXPECT_NEAR(seen.snapshot->bodies.position[3 * i], -2.0, 1e-3);
+        EXPECT_NEAR(seen.snapshot->bodies.position[3 * i + 2], 4.0, 1e-3);
+    }
+    auto const refused = full.await_reply(full.send(protocol::set{.ref = 0, .id = id, .position = protocol::vec3{0, 0, 11}}), 10s);
+    ASSERT_TRUE(refused && std::holds_alternative<protocol::error>(*refused));
+    EXPECT_EQ(std::get<protocol::error>(*refused).code, protocol::error_code::outside_world);
+}
+
 TEST(Connection, WaitForSnapshotGivesUpAfterItsTicks)
 {
     running_server s;

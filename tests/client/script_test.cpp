@@ -72,6 +72,12 @@ TEST(Script, RefusalsNameTheStepAndTheField)
     EXPECT_NE(refusal(R"({"cleanup": "yes", "steps": [{"wait_ticks": 1}]})").find("/cleanup: must be true or false"),
               std::string::npos);
     EXPECT_NE(refusal(one_step(R"({"sned": {}})")).find("step 1: no action"), std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_body": {"id": 1, "tag": 7}})"))
+                  .find("/expect_body/tag: must be a string (the body's tag) or null (no tag)"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_body": {"id": 1, "exists": false, "tag": "a"}})"))
+                  .find("/expect_body/tag: a body expected not to exist has no tag"),
+              std::string::npos);
     EXPECT_NE(refusal(one_step(R"({"send": {"type": "ping"}, "expect": {"type": "pong"}})"))
                   .find("more than one action"),
               std::string::npos);

@@ -91,6 +91,31 @@ TEST(Sleep, AnImpulseWakesTheIsland)
     EXPECT_GT(w.bodies().positions()[*w.bodies().slot_of(top)].x(), before.x());
 }
 
+// Setting a sleeping sphere's state wakes its island, as an impulse does: the top sphere
+// set moving sideways moves off; the top one lifted away leaves its column awake, and the
+// lifted one falls back onto it.
+TEST(Sleep, SettingAStateWakesTheIsland)
+{
+    world w = stack_on_the_floor(10, 0.05);
+    step(w, 60);
+    ASSERT_EQ(w.sleeping_bodies(), 10U);
+    body_id const top = w.bodies().ids()[9];
+    vec3 const before = w.bodies().positions()[9];
+    ASSERT_TRUE(w.set_state(top, std::nullopt, vec3(0.2, 0, 0)));
+    EXPECT_EQ(w.sleeping_bodies(), 0U);
+    step(w, 1);
+    EXPECT_GT(w.bodies().positions()[*w.bodies().slot_of(top)].x(), before.x());
+
+    world lifted = stack_on_the_floor(10, 0.05);
+    step(lifted, 60);
+    ASSERT_EQ(lifted.sleeping_bodies(), 10U);
+    body_id const lid = lifted.bodies().ids()[9];
+    ASSERT_TRUE(lifted.set_state(lid, vec3(0, 0, 1.5), std::nullopt));
+    EXPECT_EQ(lifted.sleeping_bodies(), 0U);
+    step(lifted, 1);
+    EXPECT_LT(lifted.bodies().positions()[*lifted.bodies().slot_of(lid)].z(), 1.5) << "it falls";
+}
+
 // A sphere dropped onto a sleeping column wakes it when it touches the top: before, the
 // column sleeps; the step the dropped sphere touches it, it is awake; and the whole lot,
 // dropped sphere included, comes to rest on top and sleeps again.

@@ -51,6 +51,42 @@ TEST(World, ImpulseChangesVelocityByJOverM)
     EXPECT_THROW(w.apply_impulse(id, vec3(NAN, 0, 0)), std::invalid_argument);
 }
 
+// set_state puts what it is given and keeps the rest, under the same id; the forces are
+// evaluated at the new position (a world under gravity accelerates the moved body towards
+// where the sun is from there). Bad values and unknown ids change nothing.
+TEST(World, SetStateSetsPositionAndVelocityKeepingTheId)
+{
+    world w;
+    w.add_force(std::make_unique<newtonian_gravity>(1.0, 0.0));
+    body_id const sun = w.add_body({vec3::Zero(), vec3::Zero(), 100.0, 1.0, 0.0, true});
+    body_id const rock = w.add_body(moving({10, 0, 0}, {1, 2, 3}, 4.0));
+    w.step(0.01); // the integrator now holds accelerations at x = 10
+    ASSERT_TRUE(w.set_state(rock, vec3(0, 5, 0), std::nullopt));
+    std::size_t const slot = *w.bodies().slot_of(rock);
+    EXPECT_EQ(w.bodies().positions()[slot], vec3(0, 5, 0));
+    vec3 const kept = w.bodies().velocities()[slot];
+    ASSERT_TRUE(w.set_state(rock, std::nullopt, vec3(0, 0, 0)));
+    EXPECT_EQ(w.bodies().positions()[slot], vec3(0, 5, 0));
+    EXPECT_EQ(w.bodies().velocities()[slot], vec3::Zero());
+    EXPECT_NE(kept, vec3::Zero());
+    w.step(0.01);
+    vec3 const v = w.bodies().velocities()[*w.bodies().slot_of(rock)];
+    EXPECT_LT(v.y(), 0.0) << "pulled towards the sun from the new place";
+    EXPECT_EQ(v.x(), 0.0);
+
+    EXPECT_FALSE(w.set_state(body_id{99, 1}, vec3(1, 0, 0), std::nullopt));
+    vec3 const x = w.bodies().positions()[*w.bodies().slot_of(rock)];
+    EXPECT_THROW(w.set_state(rock, vec3(NAN, 0, 0), vec3(1, 0, 0)), std::invalid_argument);
+    EXPECT_THROW(w.set_state(rock, vec3(1, 0, 0), vec3(0, INFINITY, 0)), std::invalid_argument);
+    EXPECT_THROW(w.set_state(sun, std::nullopt, vec3(1, 0, 0)), std::invalid_argument);
+    EXPECT_EQ(w.bodies().positions()[*w.bodies().slot_of(rock)], x);
+    EXPECT_EQ(w.bodies().velocities()[*w.bodies().slot_of(rock)], v);
+    // A static body may be put elsewhere; it stays static there.
+    ASSERT_TRUE(w.set_state(sun, vec3(0, 0, 1), vec3::Zero()));
+    w.step(0.01);
+    EXPECT_EQ(w.bodies().positions()[*w.bodies().slot_of(sun)], vec3(0, 0, 1));
+}
+
 TEST(World, RefusesBadStepsAndZeroStepChangesNothing)
 {
     world w;

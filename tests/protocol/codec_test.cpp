@@ -326,7 +326,7 @@ std::vector<bad_case> bad_client_messages()
                  "/type: must be a string, got number 4", 3},
         bad_case{
             "unknown_type", R"({"type": "jump", "ref": 5})", error_code::unknown_type,
-            R"(/type: unknown message type "jump" (known: hello, spawn, impulse, remove, ping, pause, resume, reset, load_scene))",
+            R"(/type: unknown message type "jump" (known: hello, spawn, impulse, remove, ping, pause, resume, reset, load_scene, set))",
             5},
         bad_case{"server_type_from_client", R"({"type": "welcome"})", error_code::unknown_type,
                  R"(/type: unknown message type "welcome")"},
@@ -420,6 +420,35 @@ std::vector<bad_case> bad_client_messages()
             "speed_near_the_largest_double",
             R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "velocity": [1.7e308, 1.7e308, 0], "radius": 1, "mass": 1}})",
             error_code::bad_value, "/body/velocity: a speed beyond the range of a double is not below", 1, false},
+        // A body's tag is shown to every client: bounded, no control characters.
+        bad_case{"tag_empty", R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "radius": 1, "mass": 1, "tag": ""}})",
+                 error_code::bad_value, "/body/tag: must be 1 to 32 bytes of UTF-8, got 0", 1},
+        bad_case{"tag_too_long", R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "radius": 1, "mass": 1, "tag": ")" +
+                                     std::string(33, 't') + R"("}})",
+                 error_code::bad_value, "/body/tag: must be 1 to 32 bytes of UTF-8, got 33", 1},
+        bad_case{"tag_with_a_newline", R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "radius": 1, "mass": 1, "tag": "a\nb"}})",
+                 error_code::bad_value, "/body/tag: must not hold control characters (found the byte 10)", 1},
+        bad_case{"tag_as_a_number", R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "radius": 1, "mass": 1, "tag": 7}})",
+                 error_code::wrong_type, "/body/tag: must be a string, got number 7", 1},
+        bad_case{"static_as_a_string", R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "radius": 1, "mass": 1, "static": "yes"}})",
+                 error_code::wrong_type, R"(/body/static: must be true or false, got string "yes")", 1},
+        bad_case{"static_and_moving", R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "velocity": [1, 0, 0], "radius": 1, "mass": 1, "static": true}})",
+                 error_code::bad_value, "/body/velocity: a static body cannot move", 1},
+        // set: an id and at least one of position and velocity.
+        bad_case{"set_without_either", R"({"type": "set", "ref": 7, "id": 1})", error_code::missing_field,
+                 "/: needs a position (m), a velocity (m/s) or both", 7},
+        bad_case{"set_without_id", R"({"type": "set", "ref": 7, "position": [0, 0, 0]})", error_code::missing_field,
+                 "/id: missing (required)", 7},
+        bad_case{"set_position_of_two", R"({"type": "set", "ref": 7, "id": 1, "position": [0, 0]})", error_code::bad_value,
+                 "/position: must be an array of 3 numbers [x, y, z], got array of 2", 7},
+        bad_case{"set_velocity_as_null", R"({"type": "set", "ref": 7, "id": 1, "velocity": null})", error_code::wrong_type,
+                 "/velocity: must be an array of 3 numbers [x, y, z], got null", 7},
+        bad_case{"set_position_overflowing", R"({"type": "set", "ref": 7, "id": 1, "position": [0, 0, -1e999]})",
+                 error_code::not_finite, "/position/2: -1e999 is beyond the range of a double", 7, false},
+        bad_case{"set_faster_than_light", R"({"type": "set", "ref": 7, "id": 1, "velocity": [0, 299792458, 0]})",
+                 error_code::bad_value, "/velocity: a speed of 299792458 m/s is not below the speed of light", 7, false},
+        bad_case{"set_negative_id", R"({"type": "set", "ref": 7, "id": -3, "velocity": [0, 0, 0]})", error_code::bad_value,
+                 "/id: must be a whole number from 0 to 9007199254740991, got -3", 7},
         bad_case{"negative_ref", R"({"type": "ping", "ref": -1})", error_code::bad_value,
                  "/ref: must be a whole number from 0 to 9007199254740991, got -1"},
         bad_case{"ref_beyond_2_to_53", R"({"type": "ping", "ref": 9007199254740992})",
@@ -511,6 +540,42 @@ TEST(DecodeServerMessage, RefusesWhatAClientCouldMisread)
               R"(bad_value /change: must be "joined", "renamed" or "left", got "kicked")");
     EXPECT_EQ(code_of(R"({"type": "players", "players": [{"id": 1, "name": ""}]})"),
               "bad_value /players/0/name: must be 1 to 64 bytes of UTF-8, got 0");
+
+    welcome_doc = json::parse(encode(samples::sample_welcome()));
+    welcome_doc["permissions"]["push"] = "everybody";
+    EXPECT_EQ(code_of(welcome_doc.dump()),
+              R"(bad_value /permissions/push: must be "anyone", "owner" or "admins", got "everybody")");
+    welcome_doc["permissions"] = {{"push", "owner"}, {"remove", "anyone"}};
+    EXPECT_EQ(code_of(welcome_doc.dump()),
+              R"(bad_value /permissions/remove: must be "owner" or "admins", got "anyone")");
+    EXPECT_EQ(code_of(R"({"type": "snapshot", "tick": 1, "time": 0.1, "bodies": {"id": [1, 2],
+            "position": [0, 0, 0, 1, 1, 1], "velocity": [0, 0, 0, 0, 0, 0], "radius": [1, 1], "tag": ["a"]}})"),
+              "bad_value /bodies/tag: must hold 2 numbers (1 for each of the 2 ids), got 1");
+    EXPECT_EQ(code_of(R"({"type": "snapshot", "tick": 1, "form": "key", "time": 0.1, "q": [0.001, 0.01],
+            "bodies": {"id": [1], "p": [0, 0, 0], "v": [0, 0, 0], "radius": [1], "mass": [1], "owner": [0],
+            "tag": ["a\u0001"]}})"),
+              "bad_value /bodies/tag/0: must not hold control characters (found the byte 1)");
+}
+
+// A welcome from a server before permissions were told reads as today's rules; the tag
+// columns are written only when given, and a snapshot's tags read back as sent.
+TEST(Codec, PermissionsDefaultAndTagsRoundTrip)
+{
+    json welcome_doc = json::parse(encode(samples::sample_welcome()));
+    EXPECT_EQ(welcome_doc.at("permissions"), (json{{"push", "anyone"}, {"remove", "owner"}}));
+    welcome_doc.erase("permissions");
+    auto const decoded = decode_server_message(welcome_doc.dump());
+    ASSERT_TRUE(decoded.message) << describe(decoded);
+    EXPECT_EQ(std::get<welcome>(*decoded.message).permissions, room_permissions{});
+
+    snapshot untagged{.tick = 1, .bodies = {.id = {1}, .position = {0, 0, 0}, .velocity = {0, 0, 0}, .radius = {1}}};
+    EXPECT_EQ(encode(untagged).find("tag"), std::string::npos);
+    snapshot tagged = untagged;
+    tagged.bodies.tag = std::vector<std::string>{"a\"b"};
+    EXPECT_NE(encode(tagged).find(R"("tag":["a\"b"])"), std::string::npos) << encode(tagged);
+    EXPECT_EQ(encode(spawn{.ref = 1, .body = {.radius = 1, .mass = 1}}).find("static"), std::string::npos);
+    EXPECT_NE(encode(spawn{.ref = 1, .body = {.radius = 1, .mass = 1, .is_static = true}}).find(R"("static":true)"),
+              std::string::npos);
 }
 
 // Error codes ---------------------------------------------------------------------------

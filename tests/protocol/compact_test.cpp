@@ -285,3 +285,74 @@ TEST(CompactSnapshots, AMovedBodyCostsAFewBytes)
 
 } // namespace
 } // namespace kugel::protocol
+
+namespace kugel::protocol {
+namespace {
+
+/// Two bodies at rest, body 1 tagged when `tag_first`, and a third (tagged "third") from
+/// tick 2 on, in the full form the server copies: the tag column only while some body has a tag.
+snapshot tagged_world(std::uint64_t tick, bool tag_first, bool third)
+{
+    snapshot s{.tick = tick, .time = static_cast<double>(tick) / 64.0, .bodies = {}};
+    std::vector<std::string> tags;
+    for (std::uint64_t id = 1; id <= (third ? 3U : 2U); ++id) {
+        s.bodies.id.push_back(id);
+        s.bodies.position.insert(s.bodies.position.end(), {static_cast<double>(id), 0.0, 0.0});
+        s.bodies.velocity.insert(s.bodies.velocity.end(), {0.0, 0.0, 0.0});
+        s.bodies.radius.push_back(0.5);
+        tags.push_back(id == 1 && tag_first ? "post" : id == 3 ? "third" : "");
+    }
+    s.bodies.mass.emplace(s.bodies.size(), 1.0);
+    if (std::any_of(tags.begin(), tags.end(), [](std::string const& t) { return !t.empty(); }))
+        s.bodies.tag = tags;
+    return s;
+}
+
+// A tag is one of a body's constants: the keyframe carries the tag column (only when some
+// body has a tag), a delta carries a tag only for a body that appeared, and the client's
+// state after applying both is the server's, tags and all; a body without one reads "".
+TEST(CompactSnapshots, TagsComeWithTheConstantsOnly)
+{
+    compact_state const untagged = quantize(tagged_world(1, false, false), {}, q);
+    EXPECT_FALSE(untagged.bodies.tag);
+    EXPECT_EQ(encode(keyframe(untagged)).find("tag"), std::string::npos);
+
+    compact_state const base = quantize(tagged_world(1, true, false), {}, q);
+    ASSERT_TRUE(base.bodies.tag);
+    EXPECT_EQ(*base.bodies.tag, (std::vector<std::string>{"post", ""}));
+    std::string const key = encode(keyframe(base));
+    EXPECT_NE(key.find(R"("owner":[0,0],"tag":["post",""])"), std::string::npos) << key;
+    compact_state const held = decode_and_apply(key, nullptr);
+    EXPECT_EQ(held, base);
+
+    compact_state const same = quantize(tagged_world(2, true, false), {}, q);
+    auto const quiet = delta(base, same);
+    ASSERT_TRUE(quiet);
+    EXPECT_EQ(encode(*quiet).find("tag"), std::string::npos) << "nothing appeared: no tag is sent";
+
+    compact_state const now = quantize(tagged_world(2, true, true), {}, q);
+    auto const d = delta(base, now);
+    ASSERT_TRUE(d);
+    std::string const text = encode(*d);
+    EXPECT_NE(text.find(R"("appeared":{"id":[3])"), std::string::npos) << text;
+    EXPECT_NE(text.find(R"("tag":["third"])"), std::string::npos) << text;
+    EXPECT_EQ(text.find("post"), std::string::npos) << "a held body's tag is not sent again";
+    compact_state const after = decode_and_apply(text, &held);
+    EXPECT_EQ(after, now);
+    EXPECT_EQ(to_snapshot(after).bodies.tag, (std::vector<std::string>{"post", "", "third"}));
+
+    // The tagged bodies gone, the column goes too: the client's state is the server's.
+    snapshot only_second = tagged_world(3, false, false); // bodies 1 and 3 removed
+    only_second.bodies.id.erase(only_second.bodies.id.begin());
+    only_second.bodies.position.erase(only_second.bodies.position.begin(), only_second.bodies.position.begin() + 3);
+    only_second.bodies.velocity.erase(only_second.bodies.velocity.begin(), only_second.bodies.velocity.begin() + 3);
+    only_second.bodies.radius.erase(only_second.bodies.radius.begin());
+    only_second.bodies.mass->erase(only_second.bodies.mass->begin());
+    compact_state const none = quantize(only_second, {}, q);
+    auto const gone = delta(now, none);
+    ASSERT_TRUE(gone);
+    EXPECT_EQ(decode_and_apply(encode(*gone), &after).bodies.tag, std::nullopt);
+}
+
+} // namespace
+} // namespace kugel::protocol

@@ -7,6 +7,7 @@
 
 #include <cmath>
 #include <numbers>
+#include <string>
 #include <vector>
 
 namespace kugel::protocol::samples {
@@ -27,7 +28,13 @@ inline std::vector<client_message> client_messages()
                        .radius = 0.05,
                        .density = 7800.0,
                        .charge = -1e-6}},
+        spawn{.ref = 11,
+              .body = {.position = {0.0, 1.0, 0.5}, .radius = 0.5, .mass = 100.0, .tag = "post 🎱", .is_static = true}},
+        spawn{.ref = 12, .body = {.position = {0.0, 1.0, 0.5}, .radius = 0.1, .mass = 1.0, .tag = R"(say "hi" \ bye)"}},
         impulse{.ref = 3, .id = 17, .impulse = {0.0, 0.0, 0.25}},
+        set{.ref = 13, .id = 17, .position = vec3{1.0, 2.0, 3.0}, .velocity = vec3{0.0, -0.5, 0.0}},
+        set{.ref = 14, .id = 18, .position = vec3{1.0, 2.0, 3.0}},
+        set{.ref = 15, .id = 19, .velocity = vec3{0.0, 0.0, 0.0}},
         remove{.ref = 4, .id = 0},
         ping{.ref = max_safe_integer},
         pause{.ref = 6},
@@ -77,6 +84,7 @@ inline std::vector<server_message> server_messages()
                            .commands_per_second = 0,
                            .max_bodies_per_client = 50},
                 .admin = true,
+                .permissions = {.push = "owner", .remove = "admins"},
                 .snapshots = snapshot_stream{.form = "compact",
                                              .rate = 15.0,
                                              .position_quantum = 1e-3,
@@ -103,6 +111,14 @@ inline std::vector<server_message> server_messages()
                             .radius = {0.0, 0.5},
                             .mass = std::vector{1.0, std::numbers::pi},
                             .charge = std::vector{-1.6e-19, 1.6e-19}}},
+        snapshot{.tick = 8,
+                 .time = 0.08,
+                 .bodies = {.id = {1, 2},
+                            .position = {1.0, 2.0, 3.0, 4.0, 5.0, 6.0},
+                            .velocity = {0.0, 0.0, 0.0, 0.0, 0.0, 0.0},
+                            .radius = {0.5, 0.5},
+                            .mass = std::vector{1.0, 2.0},
+                            .tag = std::vector<std::string>{"", R"(goal "A" \ 🎱)"}}},
         snapshot{},
         roster{.players = {{.id = 3, .name = "ann"}, {.id = 7, .name = std::nullopt},
                            {.id = max_safe_integer, .name = "Zoë 🎱"}}},
@@ -123,6 +139,17 @@ inline std::vector<server_message> server_messages()
                                                   .radius = {0.1, 0.1, 0.0},
                                                   .mass = {32.67, 32.67, 1.0},
                                                   .owner = {0, 3, 3}}},
+        compact_snapshot{.tick = 1205,
+                         .form = "key",
+                         .time = 1205.0 / 60.0,
+                         .q = std::array{1e-3, 1e-2},
+                         .bodies = compact_bodies{.id = {4, 17},
+                                                  .position = {0, 0, 100, 500, -250, 1750},
+                                                  .velocity = {0, 0, 0, 150, 0, -320},
+                                                  .radius = {0.1, 0.1},
+                                                  .mass = {32.67, 32.67},
+                                                  .owner = {0, 3},
+                                                  .tag = std::vector<std::string>{"goal", ""}}},
         compact_snapshot{.tick = 1206,
                          .form = "delta",
                          .base = 1204,
@@ -136,7 +163,8 @@ inline std::vector<server_message> server_messages()
                                                     .radius = {0.2},
                                                     .mass = {4.0},
                                                     .charge = std::vector{1e-6},
-                                                    .owner = {7}},
+                                                    .owner = {7},
+                                                    .tag = std::vector<std::string>{"red"}},
                          .vanished = std::vector<std::uint64_t>{4, max_safe_integer}},
         compact_snapshot{.tick = 2, .form = "delta", .base = 0},
     };

@@ -162,6 +162,21 @@ INSTANTIATE_TEST_SUITE_P(
         bad_case{"mass_and_density",
                  R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1, "density": 2, "radius": 1}]})",
                  "/bodies/0: give either mass or density, not both"},
+        bad_case{"tag_empty", R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1, "tag": ""}]})",
+                 "/bodies/0/tag: a body's tag must be 1 to 32 bytes of UTF-8, got 0"},
+        bad_case{"tag_too_long",
+                 R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1}, {"position": [1,0,0], "mass": 1, "tag": "abcdefghijklmnopqrstuvwxyz0123456"}]})",
+                 "/bodies/1/tag: a body's tag must be 1 to 32 bytes of UTF-8, got 33"},
+        bad_case{"tag_with_a_tab", R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1, "tag": "a\tb"}]})",
+                 "/bodies/0/tag: a body's tag must not hold control characters (found the byte 9)"},
+        bad_case{"tag_as_a_number", R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1, "tag": 5}]})",
+                 "/bodies/0/tag: must be a string, got"},
+        bad_case{"unknown_push_rule", R"({"dt": 0.1, "permissions": {"push": "everyone"}})",
+                 "/permissions/push: unknown rule 'everyone' (known: anyone, owner, admins)"},
+        bad_case{"remove_rule_anyone", R"({"dt": 0.1, "permissions": {"remove": "anyone"}})",
+                 "/permissions/remove: unknown rule 'anyone' (known: owner, admins)"},
+        bad_case{"unknown_permission", R"({"dt": 0.1, "permissions": {"spawn": "admins"}})",
+                 "/permissions/spawn: unknown field"},
         bad_case{"static_with_velocity",
                  R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "velocity": [1,0,0], "static": true}]})",
                  "/bodies/0/velocity: a static body cannot move"},
@@ -452,6 +467,28 @@ TEST(SceneGenerators, PlummerSphereIsSeededAroundItsCentre)
         centre += a.bodies().positions()[i] / 500.0;
     }
     EXPECT_LE((centre - physics::vec3(10, 0, -5)).norm(), 1e-12);
+}
+
+// A body's tag is kept beside it, "" for a body without one; permissions default to a
+// room's rules without any.
+TEST(SceneBodies, TagsAndPermissionsAreRead)
+{
+    scene const plain = parse_scene(R"({"dt": 1, "bodies": [{"position": [1,2,3], "mass": 2}]})", "test.json");
+    EXPECT_EQ(plain.body_tags, (std::vector<std::string>{""}));
+    EXPECT_EQ(plain.permissions.push, push_rule::anyone);
+    EXPECT_EQ(plain.permissions.remove, remove_rule::owner);
+    scene const s = parse_scene(
+        R"({"dt": 1, "permissions": {"push": "owner", "remove": "admins"},
+            "bodies": [{"position": [1,2,3], "mass": 2}, {"position": [0,0,0], "static": true, "tag": "goal \"A\" 🎱"}]})",
+        "test.json");
+    EXPECT_EQ(s.body_tags, (std::vector<std::string>{"", "goal \"A\" 🎱"}));
+    EXPECT_EQ(s.permissions.push, push_rule::owner);
+    EXPECT_EQ(s.permissions.remove, remove_rule::admins);
+    EXPECT_EQ(name(s.permissions.push), "owner");
+    EXPECT_EQ(name(s.permissions.remove), "admins");
+    EXPECT_EQ(name(push_rule::admins), "admins");
+    EXPECT_EQ(parse_scene(R"({"dt": 1, "permissions": {"push": "admins"}})", "test.json").permissions.push,
+              push_rule::admins);
 }
 
 TEST(SceneBodies, DefaultsAndStaticBodies)
