@@ -32,7 +32,7 @@ struct room_counters
     std::atomic<std::uint64_t> late_ticks{0}; ///< ticks dropped because the room fell behind
     std::atomic<std::uint64_t> bodies{0};
     std::atomic<std::uint64_t> sessions{0};
-    std::atomic<std::uint64_t> players{0}; ///< the room's players (one per session, for now)
+    std::atomic<std::uint64_t> players{0}; ///< one per session, and the away players kept for a resume
     std::atomic<std::uint64_t> snapshots{0};  ///< snapshots encoded and sent
     /// Snapshots due while the last was still being encoded: not taken (room::send_snapshot)
     std::atomic<std::uint64_t> snapshots_skipped{0};
