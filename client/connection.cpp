@@ -98,7 +98,8 @@ public:
         if (ec)
             return fail_to_connect("WebSocket handshake with " + to_string(url_) +
                                    " failed: " + ec.message());
-        if (!options_.name.empty() || options_.snapshots || !options_.players || options_.resume_token) {
+        if (!options_.name.empty() || options_.snapshots || !options_.players ||
+            options_.resume_token) {
             {
                 std::lock_guard lock(mutex_);
                 ++unsent_; // on_write counts every message down
@@ -293,9 +294,9 @@ public:
         if (notice.change == "left")
             players_.erase(notice.id);
         else // away: kept for a resume, marked so as in a roster
-            players_.insert_or_assign(notice.id, protocol::player{notice.id, notice.name,
-                                                                  notice.change == "away" ? std::optional(true)
-                                                                                          : std::nullopt});
+            players_.insert_or_assign(
+                notice.id, protocol::player{notice.id, notice.name,
+                                            notice.change == "away" ? std::optional(true) : std::nullopt});
         notices_.push_back(std::move(notice));
         while (notices_.size() > std::max<std::size_t>(options_.kept_player_notices, 1))
             notices_.pop_front();
@@ -307,7 +308,8 @@ public:
         // The resume's refusal: bad_resume, the rate limit, or a token the server cannot read.
         if (resume_pending_ && !error.ref &&
             (error.code == protocol::error_code::bad_resume ||
-             error.code == protocol::error_code::rate_limited || error.message.starts_with("/resume"))) {
+             error.code == protocol::error_code::rate_limited ||
+             error.message.starts_with("/resume"))) {
             resume_pending_ = false;
             resume_refusal_ = error;
         }

@@ -487,10 +487,12 @@ void check_together(player_notice const& notice, location const& at)
 void check_together(welcome const& w, location const& at)
 {
     if (!(w.resume_grace >= 0.0))
-        (at / "resume_grace").fail(error_code::bad_value, "must be >= 0, got " + format(w.resume_grace));
+        (at / "resume_grace")
+            .fail(error_code::bad_value, "must be >= 0, got " + format(w.resume_grace));
     if (w.bodies_on_leave != "stay" && w.bodies_on_leave != "remove")
-        (at / "bodies_on_leave").fail(error_code::bad_value, "must be \"stay\" or \"remove\", got " +
-                                                                 dump(json(shortened(w.bodies_on_leave))));
+        (at / "bodies_on_leave")
+            .fail(error_code::bad_value, "must be \"stay\" or \"remove\", got " +
+                                             dump(json(shortened(w.bodies_on_leave))));
 }
 
 void check_together(snapshot_stream const& stream, location const& at)

@@ -502,8 +502,9 @@ player_settings read_players(json const& value, location const& at)
     if (auto const* grace = find(value, "resume_grace")) {
         double const x = number_at_least(*grace, at / "resume_grace", 0.0, false);
         if (x > player_settings::max_resume_grace)
-            (at / "resume_grace").fail("must be at most " + format(player_settings::max_resume_grace) +
-                                       " s (a day), got " + format(x));
+            (at / "resume_grace")
+                .fail("must be at most " + format(player_settings::max_resume_grace) +
+                      " s (a day), got " + format(x));
         p.resume_grace = x;
     }
     if (auto const* rule = find(value, "bodies_on_leave")) {

@@ -264,7 +264,8 @@ int main(int argc, char** argv)
     std::string bodies_on_leave = "stay";
     app.add_option("--bodies-on-leave", bodies_on_leave,
                    "What becomes of a player's bodies when it leaves for good (its grace ended):\n"
-                   "stay, or remove at the next tick. A scene's players.bodies_on_leave wins in its room")
+                   "stay, or remove at the next tick. A scene's players.bodies_on_leave wins in\n"
+                   "its room")
         ->check(CLI::IsMember({"stay", "remove"}))
         ->capture_default_str();
     app.add_option("--max-message-bytes", options.client.max_message_bytes,

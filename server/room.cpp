@@ -297,8 +297,9 @@ void room::hear_players(std::shared_ptr<websocket_session> session, bool hears)
 void room::leave(std::uint64_t connection_id)
 {
     net::post(strand_, [self = shared_from_this(), connection_id] {
-        auto const gone = std::find_if(self->sessions_.begin(), self->sessions_.end(),
-                                       [&](member const& m) { return m.connection == connection_id; });
+        auto const gone =
+            std::find_if(self->sessions_.begin(), self->sessions_.end(),
+                         [&](member const& m) { return m.connection == connection_id; });
         if (gone == self->sessions_.end())
             return; // its player was resumed on another connection
         member const m = std::move(*gone);
@@ -319,9 +320,8 @@ void room::leave(std::uint64_t connection_id)
 
 void room::resume(std::shared_ptr<websocket_session> session, std::string token)
 {
-    net::post(strand_, [self = shared_from_this(), session = std::move(session), token = std::move(token)] {
-        self->take_up_player(*session, token);
-    });
+    net::post(strand_, [self = shared_from_this(), session = std::move(session),
+                        token = std::move(token)] { self->take_up_player(*session, token); });
 }
 
 void room::take_up_player(websocket_session& session, std::string const& token)
@@ -399,7 +399,8 @@ void room::take_up_player(websocket_session& session, std::string const& token)
         m.resume_token = new_resume_token(); // the used one is spent
     } catch (std::exception const& e) {
         m.resume_token.clear();
-        spdlog::error("room '{}': no new resume token for client {}: {}", name_, m.connection, e.what());
+        spdlog::error("room '{}': no new resume token for client {}: {}", name_, m.connection,
+                      e.what());
     }
     session.become(player);
     tell_players({.change = "back", .id = player, .name = m.name}, player);
@@ -443,7 +444,8 @@ void room::remove_bodies_of(std::uint64_t client_id)
         forget_body(wire_id);
     }
     if (!owned.empty())
-        spdlog::info("room '{}': player {} left; its {} bodies were removed", name_, client_id, owned.size());
+        spdlog::info("room '{}': player {} left; its {} bodies were removed", name_, client_id,
+                     owned.size());
 }
 
 void room::count_players()
@@ -455,11 +457,11 @@ void room::count_players()
 void room::use_player_rules(scene::scene const& s)
 {
     resume_grace_ = s.players.resume_grace.value_or(settings_.resume_grace);
-    remove_bodies_on_leave_ = s.players.remove_bodies_on_leave.value_or(settings_.remove_bodies_on_leave);
-    grace_ticks_ = resume_grace_ > 0.0
-                       ? std::max<std::uint64_t>(1, static_cast<std::uint64_t>(
-                                                        std::ceil(resume_grace_ * settings_.tick_rate)))
-                       : 0;
+    remove_bodies_on_leave_ =
+        s.players.remove_bodies_on_leave.value_or(settings_.remove_bodies_on_leave);
+    double const ticks = std::ceil(resume_grace_ * settings_.tick_rate);
+    grace_ticks_ =
+        resume_grace_ > 0.0 ? std::max<std::uint64_t>(1, static_cast<std::uint64_t>(ticks)) : 0;
 }
 
 void room::tell_players(protocol::player_notice const& notice, std::uint64_t except)

@@ -78,7 +78,8 @@ websocket_session::websocket_session(tcp::socket&& socket, std::shared_ptr<room>
                                      client_limits limits, std::uint64_t client_id,
                                      std::string admin_token)
     : ws_(std::move(socket)), room_(std::move(joined)), limits_(limits), client_id_(client_id),
-      player_id_(client_id), admin_token_(std::move(admin_token)), tokens_(limits.command_burst), refilled_(clock::now())
+      player_id_(client_id), admin_token_(std::move(admin_token)), tokens_(limits.command_burst),
+      refilled_(clock::now())
 {
     beast::error_code ec;
     // Small replies must not wait behind a snapshot for the client's delayed ACK (Nagle):

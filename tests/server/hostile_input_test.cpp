@@ -561,18 +561,22 @@ TEST(HostileInput, ResumeTokensThatNameNoPlayerHereAreRefusedAndChangeNothing)
     std::string const attic_token = token_of(*attic.next_answer());
     std::string spent_token;
     std::string own_token;
+    std::uint64_t spawned_at = 0;
     auto resumed = std::make_unique<checked_client>(s.port(), "/ws/den");
     {
         checked_client ann(s.port(), "/ws/den");
         spent_token = token_of(*ann.next_answer());
         ann.raw().send(json{{"type", "spawn"}, {"ref", 1}, {"body", {{"position", {1, 2, 3}}, {"radius", 0.1}, {"mass", 1}}}});
-        ASSERT_EQ(ann.next_answer()->at("type"), "ack");
+        json const ack = *ann.next_answer();
+        ASSERT_EQ(ack.at("type"), "ack") << ack.dump();
+        spawned_at = ack.at("tick").get<std::uint64_t>();
     }
     resumed->next_answer(); // its welcome
     resumed->raw().send(json{{"type", "hello"}, {"resume", spent_token}});
     json const welcome = *resumed->next_answer();
     ASSERT_EQ(welcome.at("type"), "welcome") << welcome.dump();
     own_token = token_of(welcome);
+    last = observer.snapshot_at_or_after(spawned_at); // the world the attempts must leave alone
 
     struct attempt
     {
