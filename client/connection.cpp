@@ -98,12 +98,17 @@ public:
         if (ec)
             return fail_to_connect("WebSocket handshake with " + to_string(url_) +
                                    " failed: " + ec.message());
-        if (!options_.name.empty() || options_.snapshots || !options_.players) {
+        if (!options_.name.empty() || options_.snapshots || !options_.players ||
+            options_.resume_token) {
             {
                 std::lock_guard lock(mutex_);
                 ++unsent_; // on_write counts every message down
+                resume_pending_ = options_.resume_token.has_value();
             }
             protocol::hello hello{.protocol = protocol::protocol_version};
+            // The resume first (the server takes it before the name, which then names the
+            // player resumed).
+            hello.resume = options_.resume_token;
             if (!options_.name.empty())
                 hello.name = options_.name;
             hello.snapshots = options_.snapshots;
@@ -199,6 +204,11 @@ public:
             std::max<std::uint64_t>(1, static_cast<std::uint64_t>(std::ceil(ratio - 1e-9)));
         if (!welcome_)
             stats_.opened = now;
+        // A resume is answered by a welcome naming another player than the first welcome did.
+        if (resume_pending_ && welcome_ && welcome.client != welcome_->client) {
+            resume_pending_ = false;
+            resumed_ = true;
+        }
         welcome_ = std::move(welcome);
     }
 
@@ -283,8 +293,10 @@ public:
     {
         if (notice.change == "left")
             players_.erase(notice.id);
-        else
-            players_.insert_or_assign(notice.id, protocol::player{notice.id, notice.name});
+        else // away: kept for a resume, marked so as in a roster
+            players_.insert_or_assign(
+                notice.id, protocol::player{notice.id, notice.name,
+                                            notice.change == "away" ? std::optional(true) : std::nullopt});
         notices_.push_back(std::move(notice));
         while (notices_.size() > std::max<std::size_t>(options_.kept_player_notices, 1))
             notices_.pop_front();
@@ -293,6 +305,14 @@ public:
     void take(protocol::error error, clock::time_point)
     {
         ++stats_.errors[std::string(protocol::name(error.code))];
+        // The resume's refusal: bad_resume, the rate limit, or a token the server cannot read.
+        if (resume_pending_ && !error.ref &&
+            (error.code == protocol::error_code::bad_resume ||
+             error.code == protocol::error_code::rate_limited ||
+             error.message.starts_with("/resume"))) {
+            resume_pending_ = false;
+            resume_refusal_ = error;
+        }
         bool const ours = error.ref && answered(*error.ref);
         file(std::move(error), ours);
     }
@@ -442,6 +462,33 @@ public:
     {
         std::lock_guard lock(mutex_);
         return *welcome_; // set before the constructor returned; a copy, as a newer may come
+    }
+
+    /// Waits for the answer to the hello's resume, if it had one; throws connection_error
+    /// when none comes in time or the connection ends first.
+    void await_resume()
+    {
+        std::unique_lock lock(mutex_);
+        bool const done = changed_.wait_for(lock, options_.connect_timeout,
+                                            [&] { return !resume_pending_ || closed_; });
+        if (resume_pending_ && closed_)
+            throw connection_error("the connection to " + to_string(url_) +
+                                   " ended before the answer to its resume: " + describe(*closed_));
+        if (!done)
+            throw connection_error("no answer to the resume from " + to_string(url_) + " within " +
+                                   std::to_string(options_.connect_timeout.count()) + " ms");
+    }
+
+    bool resumed() const
+    {
+        std::lock_guard lock(mutex_);
+        return resumed_;
+    }
+
+    std::optional<protocol::error> resume_refusal() const
+    {
+        std::lock_guard lock(mutex_);
+        return resume_refusal_;
     }
 
     /// Counts a message about to be sent; throws when the connection cannot take it.
@@ -674,6 +721,9 @@ private:
     mutable std::mutex mutex_;
     std::condition_variable changed_;
     std::optional<protocol::welcome> welcome_;
+    bool resume_pending_ = false; ///< the hello carried a resume not answered yet
+    bool resumed_ = false;        ///< a welcome answered it: this connection is that player
+    std::optional<protocol::error> resume_refusal_; ///< the error that answered it
     std::optional<std::string> connect_failure_;
     std::optional<close_info> closed_;
     std::uint64_t next_ref_ = 1;
@@ -729,6 +779,7 @@ connection::connection(std::string const& url, connection_options options)
     });
     state_->io_thread = std::thread([&io = state_->io] { io.run(); });
     state_->live->await_welcome(); // throws: ~state stops the thread
+    state_->live->await_resume();
     if (state_->live->options().on_snapshot)
         state_->callback_thread = std::thread([s = state_->live] { s->run_callbacks(); });
 }
@@ -744,6 +795,21 @@ connection::~connection()
 protocol::welcome connection::welcome() const
 {
     return state_->live->welcome();
+}
+
+std::optional<std::string> connection::resume_token() const
+{
+    return state_->live->welcome().resume_token;
+}
+
+bool connection::resumed() const
+{
+    return state_->live->resumed();
+}
+
+std::optional<protocol::error> connection::resume_refusal() const
+{
+    return state_->live->resume_refusal();
 }
 
 std::uint64_t connection::send(command c)

@@ -53,6 +53,12 @@ struct connection_options
     /// full form's columns, positions and velocities to the quanta the welcome announces
     /// (PROTOCOL.md); `kugel-client watch` and `load` ask for it.
     std::optional<protocol::snapshot_request> snapshots;
+    /// A welcome's resume_token (resume_token() of an earlier connection): sent in the hello,
+    /// so that this connection becomes that player again (its id, name and bodies) while the
+    /// room still keeps it (PROTOCOL.md, resuming). The constructor waits for the answer:
+    /// resumed() says whether it took; when it did not, resume_refusal() says why and the
+    /// connection goes on as the fresh player its first welcome named.
+    std::optional<std::string> resume_token;
     /// How long connecting (resolve, TCP, upgrade) and the welcome may take.
     std::chrono::milliseconds connect_timeout{10'000};
     /// Snapshots received and not yet taken; a full queue drops its oldest.
@@ -164,6 +170,16 @@ public:
     /// an admin, and after an admin loads another scene): room, tick rate, dt, the scene's
     /// geometry, the limits. A copy, since the connection's thread may replace it.
     protocol::welcome welcome() const;
+    /// The newest welcome's resume_token: what a later connection gives as
+    /// connection_options::resume_token to become this player again. Nothing when the room
+    /// keeps no player for a resume (its resume_grace is 0). A secret: do not log it.
+    std::optional<std::string> resume_token() const;
+    /// Whether the resume this connection was opened with took: welcome().client is then the
+    /// player resumed.
+    bool resumed() const;
+    /// The error that refused this connection's resume (bad_resume, mostly); nothing when it
+    /// took or none was asked.
+    std::optional<protocol::error> resume_refusal() const;
 
     /// Sends a command with a fresh ref (1, 2, 3, ...: whatever ref it carries is replaced)
     /// and returns that ref. Throws connection_error once the connection has ended.

@@ -229,11 +229,21 @@ void tag_column(std::vector<std::string> const& tags, location const& at)
             body_tag(tags[i], at / i);
 }
 
+/// A resume token: a secret, so its length is all a refusal says of it.
+void resume_token_text(std::string const& token, location const& at)
+{
+    if (token.empty() || token.size() > max_resume_token_bytes)
+        at.fail(error_code::bad_value, "must be 1 to " + std::to_string(max_resume_token_bytes) +
+                                           " bytes (a welcome's resume_token), got " +
+                                           std::to_string(token.size()));
+}
+
 constexpr auto fields(std::type_identity<hello>)
 {
     return std::tuple{member("protocol", &hello::protocol, spoken_protocol),
                       member("name", &hello::name, player_name), member("admin_token", &hello::admin_token),
-                      member("snapshots", &hello::snapshots), member("players", &hello::players)};
+                      member("snapshots", &hello::snapshots), member("players", &hello::players),
+                      member("resume", &hello::resume, resume_token_text)};
 }
 
 constexpr auto fields(std::type_identity<body_spec>)
@@ -357,7 +367,10 @@ constexpr auto fields(std::type_identity<welcome>)
                       member("limits", &welcome::limits),
                       with_default("admin", &welcome::admin),
                       with_default("permissions", &welcome::permissions),
-                      member("snapshots", &welcome::snapshots)};
+                      member("snapshots", &welcome::snapshots),
+                      with_default("resume_grace", &welcome::resume_grace),
+                      with_default("bodies_on_leave", &welcome::bodies_on_leave),
+                      member("resume_token", &welcome::resume_token, resume_token_text)};
 }
 
 constexpr auto fields(std::type_identity<ack>)
@@ -425,7 +438,8 @@ constexpr auto fields(std::type_identity<compact_snapshot>)
 
 constexpr auto fields(std::type_identity<player>)
 {
-    return std::tuple{member("id", &player::id), member("name", &player::name, player_name)};
+    return std::tuple{member("id", &player::id), member("name", &player::name, player_name),
+                      member("away", &player::away)};
 }
 
 constexpr auto fields(std::type_identity<roster>)
@@ -537,9 +551,22 @@ void check_together(snapshot_request const& request, location const& at)
 
 void check_together(player_notice const& notice, location const& at)
 {
-    if (notice.change != "joined" && notice.change != "renamed" && notice.change != "left")
-        (at / "change").fail(error_code::bad_value, "must be \"joined\", \"renamed\" or \"left\", got " +
+    if (notice.change != "joined" && notice.change != "renamed" && notice.change != "away" &&
+        notice.change != "back" && notice.change != "left")
+        (at / "change").fail(error_code::bad_value, "must be \"joined\", \"renamed\", \"away\", "
+                                                    "\"back\" or \"left\", got " +
                                                         dump(json(shortened(notice.change))));
+}
+
+void check_together(welcome const& w, location const& at)
+{
+    if (!(w.resume_grace >= 0.0))
+        (at / "resume_grace")
+            .fail(error_code::bad_value, "must be >= 0, got " + format(w.resume_grace));
+    if (w.bodies_on_leave != "stay" && w.bodies_on_leave != "remove")
+        (at / "bodies_on_leave")
+            .fail(error_code::bad_value, "must be \"stay\" or \"remove\", got " +
+                                             dump(json(shortened(w.bodies_on_leave))));
 }
 
 void check_together(snapshot_stream const& stream, location const& at)

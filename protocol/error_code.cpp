@@ -12,6 +12,7 @@ constexpr std::array<std::string_view, all_error_codes.size()> wire_names{
     "not_finite",    "bad_value",   "unsupported_protocol", "unknown_body",      "outside_world",
     "overlaps_wall", "room_full",   "rate_limited",         "message_too_large",
     "forbidden",     "too_many_bodies", "overlaps_body",       "singular_force",
+    "bad_resume",
 };
 
 constexpr bool table_follows_the_enum()

@@ -29,6 +29,7 @@ enum class error_code {
     too_many_bodies,   ///< spawn while the client has limits.max_bodies_per_client bodies
     overlaps_body,     ///< spawn puts a sphere into another sphere, in a room with collisions
     singular_force,    ///< spawn gives a force beyond what the room can step (none holds it)
+    bad_resume,        ///< hello.resume names no player this connection can become again
 };
 
 /// Every code, in declaration order.
@@ -39,6 +40,7 @@ inline constexpr std::array all_error_codes{
     error_code::outside_world, error_code::overlaps_wall,        error_code::room_full,
     error_code::rate_limited,  error_code::message_too_large,    error_code::forbidden,
     error_code::too_many_bodies, error_code::overlaps_body,      error_code::singular_force,
+    error_code::bad_resume,
 };
 
 /// The wire name of a code: "bad_json", "unknown_body", ...

@@ -50,6 +50,9 @@ struct snapshot_request
 
 /// The longest player name, in bytes of UTF-8.
 inline constexpr std::size_t max_player_name_bytes = 64;
+/// The longest hello.resume read, in bytes: a server's tokens are far shorter (kugel-server's
+/// are 32 hex digits), and a longer one is refused before any token is compared.
+inline constexpr std::size_t max_resume_token_bytes = 128;
 
 /// Optional first message: which protocol the client speaks, the player's name (shown to
 /// the room's other players; a later hello renames), the admin token that makes this
@@ -66,6 +69,9 @@ struct hello
     /// presence); true: send them again, starting with the roster. Absent keeps what it was
     /// (every connection starts hearing them).
     std::optional<bool> players;
+    /// A welcome's resume_token: this connection becomes that player again (its id, name and
+    /// bodies), answered by a new welcome; 1 to max_resume_token_bytes bytes. Never logged.
+    std::optional<std::string> resume;
 
     bool operator==(hello const&) const = default;
 };
@@ -298,6 +304,14 @@ struct welcome
     room_permissions permissions; ///< who may push and remove whose bodies here
     /// What this connection's snapshots are; only in a welcome answering hello.snapshots.
     std::optional<snapshot_stream> snapshots;
+    /// s: how long the room keeps a player whose connection ended, for a hello.resume to
+    /// take up; 0: not at all (the player leaves with its connection).
+    double resume_grace = 0.0;
+    /// What becomes of a player's bodies when it leaves for good: "stay" or "remove".
+    std::string bodies_on_leave = "stay";
+    /// This player's secret for hello.resume, only while resume_grace > 0; a new one after
+    /// each resume. Never logged.
+    std::optional<std::string> resume_token;
 
     bool operator==(welcome const&) const = default;
 };
@@ -425,6 +439,9 @@ struct player
 {
     std::uint64_t id = 0;
     std::optional<std::string> name; ///< absent until a hello names it
+    /// true: its connection ended and the room keeps it for a resume (its grace); absent: it
+    /// is connected.
+    std::optional<bool> away;
 
     bool operator==(player const&) const = default;
 };
@@ -438,12 +455,13 @@ struct roster
     bool operator==(roster const&) const = default;
 };
 
-/// A player joined, was renamed (a hello with a name) or left: sent to every other client of
-/// the room, and a rename to the renamed one too.
+/// A player joined, was renamed (a hello with a name), went away (its connection ended, and
+/// the room keeps it for a resume), came back (a resume) or left: sent to every other client
+/// of the room, and a rename to the renamed one too.
 struct player_notice
 {
     static constexpr std::string_view type = "player";
-    std::string change; ///< "joined", "renamed" or "left"
+    std::string change; ///< "joined", "renamed", "away", "back" or "left"
     std::uint64_t id = 0;
     std::optional<std::string> name;
 

@@ -534,11 +534,33 @@ room_permissions read_permissions(json const& value, location const& at)
     return p;
 }
 
+player_settings read_players(json const& value, location const& at)
+{
+    object(value, at, {"resume_grace", "bodies_on_leave"});
+    player_settings p;
+    if (auto const* grace = find(value, "resume_grace")) {
+        double const x = number_at_least(*grace, at / "resume_grace", 0.0, false);
+        if (x > player_settings::max_resume_grace)
+            (at / "resume_grace")
+                .fail("must be at most " + format(player_settings::max_resume_grace) +
+                      " s (a day), got " + format(x));
+        p.resume_grace = x;
+    }
+    if (auto const* rule = find(value, "bodies_on_leave")) {
+        std::string const wanted = text(*rule, at / "bodies_on_leave");
+        if (wanted != "stay" && wanted != "remove")
+            (at / "bodies_on_leave").fail("must be \"stay\" or \"remove\", got \"" + wanted + "\"");
+        p.remove_bodies_on_leave = wanted == "remove";
+    }
+    return p;
+}
+
 scene read_scene(json const& doc, location const& at)
 {
     object(doc, at,
            {"$schema", "name", "description", "dt", "substeps", "integrator", "tolerance", "forces",
-            "collisions", "walls", "box", "obstacles", "bodies", "generators", "snapshots", "permissions"});
+             "collisions", "walls", "box", "obstacles", "bodies", "generators", "snapshots", "permissions",
+             "players"});
     scene s;
     s.name = optional_field(doc, "name", at, std::string("unnamed"), text);
     s.description = optional_field(doc, "description", at, std::string(), text);
@@ -619,6 +641,8 @@ scene read_scene(json const& doc, location const& at)
         s.snapshots = read_snapshots(*snapshots, at / "snapshots");
     if (auto const* permissions = find(doc, "permissions"))
         s.permissions = read_permissions(*permissions, at / "permissions");
+    if (auto const* players = find(doc, "players"))
+        s.players = read_players(*players, at / "players");
     if (s.body_count() > max_scene_bodies)
         at.fail("creates " + std::to_string(s.body_count()) + " bodies, more than the limit of " +
                 std::to_string(max_scene_bodies));

@@ -138,6 +138,19 @@ struct room_permissions
 /// The longest tag a body may carry, in bytes of UTF-8 (as the protocol's spawn.body.tag).
 inline constexpr std::size_t max_tag_bytes = 32;
 
+/// What a server does when a player's connection ends (protocol/PROTOCOL.md, resume). A field
+/// the scene leaves out is the server's choice (kugel-server --resume-grace,
+/// --bodies-on-leave); one it gives wins, so that a demo gets the rules it was written for.
+struct player_settings
+{
+    /// s the room keeps a player whose connection ended, for a hello.resume; 0: none.
+    std::optional<double> resume_grace;
+    /// "remove": true, the player's bodies go when it leaves for good; "stay": false.
+    std::optional<bool> remove_bodies_on_leave;
+
+    static constexpr double max_resume_grace = 86'400.0; ///< s: a day; more is a typo
+};
+
 /// A validated scene: everything a world needs, in engine units.
 struct scene
 {
@@ -158,6 +171,7 @@ struct scene
     std::vector<body_generator> generators;
     snapshot_settings snapshots;
     room_permissions permissions;
+    player_settings players;
 
     /// Explicit bodies plus every generator's count.
     std::uint64_t body_count() const;

@@ -254,6 +254,20 @@ int main(int argc, char** argv)
                    "resume, reset a room, load a scene into it and remove any body. Without\n"
                    "it nobody is an admin. Prefer the environment variable, which ps does not show")
         ->envname("KUGEL_ADMIN_TOKEN");
+    app.add_option("--resume-grace", options.resume_grace,
+                   "Seconds a room keeps a player whose connection ended: a new connection whose\n"
+                   "hello carries its welcome's resume_token becomes it again, with its id, name\n"
+                   "and bodies (0: the player leaves with its connection). A scene's\n"
+                   "players.resume_grace wins in its room")
+        ->check(CLI::Range(0.0, 86'400.0))
+        ->capture_default_str();
+    std::string bodies_on_leave = "stay";
+    app.add_option("--bodies-on-leave", bodies_on_leave,
+                   "What becomes of a player's bodies when it leaves for good (its grace ended):\n"
+                   "stay, or remove at the next tick. A scene's players.bodies_on_leave wins in\n"
+                   "its room")
+        ->check(CLI::IsMember({"stay", "remove"}))
+        ->capture_default_str();
     app.add_option("--max-message-bytes", options.client.max_message_bytes,
                    "Largest inbound WebSocket frame; a larger one closes the connection (1009)")
         ->check(CLI::Range(std::size_t{256}, std::size_t{64} << 20))
@@ -337,6 +351,7 @@ int main(int argc, char** argv)
             std::chrono::duration<double>(checkpoint_interval));
         options.client.write_stall = std::chrono::duration_cast<std::chrono::milliseconds>(
             std::chrono::duration<double>(write_stall));
+        options.remove_bodies_on_leave = bodies_on_leave == "remove";
         options.client.commands_per_second = static_cast<double>(commands_per_second);
         options.client.command_burst = options.client.commands_per_second;
         return serve(options);

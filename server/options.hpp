@@ -85,6 +85,11 @@ struct server_options
     /// What a hello's admin_token must be for the connection to be an admin (pause, resume,
     /// reset, load_scene, remove any body); empty: nobody is an admin.
     std::string admin_token;
+    /// Players, in every room whose scene does not set them (its `players`, which wins):
+    /// seconds a player whose connection ended is kept for a hello.resume (0: none), and
+    /// whether its bodies are removed when it leaves for good (else they stay).
+    double resume_grace = 0.0;
+    bool remove_bodies_on_leave = false;
 };
 
 } // namespace kugel::server

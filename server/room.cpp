@@ -1,5 +1,6 @@
 #include "room.hpp"
 
+#include "resume_token.hpp"
 #include "websocket_session.hpp"
 
 #include "physics/obb.hpp"
@@ -109,6 +110,7 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
     welcome_ = restored ? make_welcome(name_, scene_, scene::build_world(scene_), settings_)
                         : make_welcome(name_, scene_, world_, settings_);
     quanta_ = quanta_for(scene_, welcome_);
+    use_player_rules(scene_);
     auto const ids = world_.bodies().ids();
     for (std::size_t slot = 0; slot < ids.size(); ++slot) {
         physics::body_id const id = ids[slot];
@@ -257,9 +259,16 @@ void room::join(std::shared_ptr<websocket_session> session)
 {
     net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
         // Counted before the welcome goes out, so a client that has its welcome is counted.
-        self->sessions_.push_back({session->client_id(), session});
-        self->counters_.sessions = self->sessions_.size();
-        self->counters_.players = self->sessions_.size();
+        member joined{session->client_id(), session};
+        joined.connection = session->connection_id();
+        try {
+            joined.resume_token = new_resume_token();
+        } catch (std::exception const& e) { // the kernel gave no random bytes: no resume for it
+            spdlog::error("room '{}': no resume token for client {}: {}", self->name_,
+                          joined.connection, e.what());
+        }
+        self->sessions_.push_back(std::move(joined));
+        self->count_players();
         session->send_reply(self->welcome_for(self->sessions_.back()));
         session->send_players(share(protocol::encode(self->current_roster())));
         self->tell_players({.change = "joined", .id = session->client_id(), .name = std::nullopt},
@@ -271,7 +280,7 @@ void room::rename(std::shared_ptr<websocket_session> session, std::string name)
 {
     net::post(strand_, [self = shared_from_this(), session = std::move(session), name = std::move(name)] {
         for (member& m : self->sessions_)
-            if (m.client_id == session->client_id() && m.name != name) {
+            if (m.connection == session->connection_id() && m.name != name) {
                 m.name = name;
                 self->tell_players({.change = "renamed", .id = m.client_id, .name = name}, 0);
             }
@@ -282,7 +291,7 @@ void room::send_roster(std::shared_ptr<websocket_session> session)
 {
     net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
         for (member const& m : self->sessions_)
-            if (m.client_id == session->client_id() && m.hears_players)
+            if (m.connection == session->connection_id() && m.hears_players)
                 session->send_players(share(protocol::encode(self->current_roster())));
     });
 }
@@ -291,7 +300,7 @@ void room::hear_players(std::shared_ptr<websocket_session> session, bool hears)
 {
     net::post(strand_, [self = shared_from_this(), session = std::move(session), hears] {
         for (member& m : self->sessions_)
-            if (m.client_id == session->client_id() && m.hears_players != hears) {
+            if (m.connection == session->connection_id() && m.hears_players != hears) {
                 m.hears_players = hears;
                 if (hears)
                     session->send_players(share(protocol::encode(self->current_roster())));
@@ -299,19 +308,174 @@ void room::hear_players(std::shared_ptr<websocket_session> session, bool hears)
     });
 }
 
-void room::leave(std::uint64_t client_id)
+void room::leave(std::uint64_t connection_id)
 {
-    net::post(strand_, [self = shared_from_this(), client_id] {
-        auto const gone = std::find_if(self->sessions_.begin(), self->sessions_.end(),
-                                       [&](member const& m) { return m.client_id == client_id; });
+    net::post(strand_, [self = shared_from_this(), connection_id] {
+        auto const gone =
+            std::find_if(self->sessions_.begin(), self->sessions_.end(),
+                         [&](member const& m) { return m.connection == connection_id; });
         if (gone == self->sessions_.end())
-            return;
-        protocol::player_notice const left{.change = "left", .id = client_id, .name = gone->name};
+            return; // its player was resumed on another connection
+        member const m = std::move(*gone);
         self->sessions_.erase(gone);
-        self->counters_.sessions = self->sessions_.size();
-        self->counters_.players = self->sessions_.size();
-        self->tell_players(left, client_id);
+        if (self->resume_grace_ > 0.0 && !m.resume_token.empty()) {
+            // Kept for a resume until its grace ends (end_graces): away, not yet left.
+            self->away_.push_back({m.client_id, m.name, m.resume_token,
+                                   self->counters_.ticks + self->grace_ticks_});
+            self->tell_players({.change = "away", .id = m.client_id, .name = m.name}, m.client_id);
+        } else {
+            self->tell_players({.change = "left", .id = m.client_id, .name = m.name}, m.client_id);
+            if (self->remove_bodies_on_leave_)
+                self->leaving_bodies_.push_back(m.client_id);
+        }
+        self->count_players();
     });
+}
+
+void room::resume(std::shared_ptr<websocket_session> session, std::string token)
+{
+    net::post(strand_, [self = shared_from_this(), session = std::move(session),
+                        token = std::move(token)] { self->take_up_player(*session, token); });
+}
+
+void room::take_up_player(websocket_session& session, std::string const& token)
+{
+    auto const find_member = [&] {
+        return std::find_if(sessions_.begin(), sessions_.end(), [&](member const& m) {
+            return m.connection == session.connection_id();
+        });
+    };
+    auto const here = find_member();
+    if (here == sessions_.end())
+        return; // the session ended meanwhile
+    std::uint64_t const fresh = here->client_id;
+    // The token is never written anywhere: not in the answer, not in the log.
+    auto const refuse_resume = [&](std::string const& why) {
+        traffic_.count_rejected(error_code::bad_resume);
+        // The first ten, then one in a hundred: guessing must not flood the log.
+        if (++resume_refusals_ <= 10 || resume_refusals_ % 100 == 0)
+            spdlog::info("room '{}': client {} refused a resume ({} refusals so far): {}", name_,
+                         session.connection_id(), resume_refusals_, why);
+        session.send_notice(share(protocol::encode(
+            protocol::error{std::nullopt, error_code::bad_resume, "/resume: " + why})));
+    };
+    if (!(resume_grace_ > 0.0))
+        return refuse_resume(fmt::format("this room keeps no player for a resume (its resume_grace "
+                                         "is 0); this connection stays player {}", fresh));
+    if (here->resumed)
+        return refuse_resume(fmt::format("this connection resumed player {} already, and a "
+                                         "connection resumes once; open a new one to resume again",
+                                         fresh));
+    if (is_resume_token(token, here->resume_token))
+        return refuse_resume(fmt::format("that is this connection's own token: it is player {} "
+                                         "already", fresh));
+    // Every token the room holds is compared in full, each in constant time.
+    std::optional<std::size_t> away_at;
+    for (std::size_t i = 0; i < away_.size(); ++i)
+        if (is_resume_token(token, away_[i].resume_token))
+            away_at = i;
+    std::optional<std::size_t> open_at;
+    for (std::size_t i = 0; i < sessions_.size(); ++i)
+        if (sessions_[i].connection != session.connection_id() &&
+            is_resume_token(token, sessions_[i].resume_token))
+            open_at = i;
+    if (!away_at && !open_at)
+        return refuse_resume(fmt::format("no player of this room holds this token (it is wrong, of "
+                                         "another room, used already, or its player's grace "
+                                         "ended); this connection stays player {}", fresh));
+
+    std::uint64_t player = 0;
+    std::optional<std::string> name;
+    if (away_at) {
+        player = away_[*away_at].client_id;
+        name = away_[*away_at].name;
+        away_.erase(away_.begin() + static_cast<std::ptrdiff_t>(*away_at));
+    } else {
+        // Still connected (a connection the client has given up on, which the server has not
+        // noticed yet): that connection is closed, and this one takes its place.
+        member const old = std::move(sessions_[*open_at]);
+        sessions_.erase(sessions_.begin() + static_cast<std::ptrdiff_t>(*open_at));
+        player = old.client_id;
+        name = old.name;
+        if (auto const old_session = old.session.lock())
+            old_session->replace();
+    }
+    member& m = *find_member(); // the erase above may have moved it
+    // The player this connection was until now is gone for the others; its bodies, if any,
+    // follow the room's rule as any player's that leaves.
+    tell_players({.change = "left", .id = fresh, .name = m.name}, fresh);
+    if (remove_bodies_on_leave_)
+        leaving_bodies_.push_back(fresh);
+    m.client_id = player;
+    m.name = std::move(name);
+    m.resumed = true;
+    try {
+        m.resume_token = new_resume_token(); // the used one is spent
+    } catch (std::exception const& e) {
+        m.resume_token.clear();
+        spdlog::error("room '{}': no new resume token for client {}: {}", name_, m.connection,
+                      e.what());
+    }
+    session.become(player);
+    tell_players({.change = "back", .id = player, .name = m.name}, player);
+    session.send_notice(welcome_for(m));
+    if (m.hears_players)
+        session.send_players(share(protocol::encode(current_roster())));
+    count_players();
+    spdlog::info("room '{}': client {} resumed player {}{}", name_, m.connection, player,
+                 open_at ? " (closing its other connection)" : "");
+}
+
+void room::end_graces()
+{
+    std::uint64_t const tick = counters_.ticks + 1; // the tick being applied
+    std::size_t const before = away_.size();
+    for (auto it = away_.begin(); it != away_.end();) {
+        if (it->until_tick > tick) {
+            ++it;
+            continue;
+        }
+        tell_players({.change = "left", .id = it->client_id, .name = it->name}, it->client_id);
+        if (remove_bodies_on_leave_)
+            leaving_bodies_.push_back(it->client_id);
+        it = away_.erase(it);
+    }
+    for (std::uint64_t const client : std::exchange(leaving_bodies_, {}))
+        remove_bodies_of(client);
+    if (away_.size() != before)
+        count_players();
+}
+
+void room::remove_bodies_of(std::uint64_t client_id)
+{
+    std::vector<std::uint64_t> owned;
+    for (auto const& [wire_id, owner] : owner_of_wire_id_)
+        if (owner == client_id)
+            owned.push_back(wire_id);
+    for (std::uint64_t const wire_id : owned) {
+        if (auto const body = body_of_wire_id_.find(wire_id); body != body_of_wire_id_.end())
+            world_.remove_body(body->second);
+        forget_body(wire_id);
+    }
+    if (!owned.empty())
+        spdlog::info("room '{}': player {} left; its {} bodies were removed", name_, client_id,
+                     owned.size());
+}
+
+void room::count_players()
+{
+    counters_.sessions = sessions_.size();
+    counters_.players = sessions_.size() + away_.size();
+}
+
+void room::use_player_rules(scene::scene const& s)
+{
+    resume_grace_ = s.players.resume_grace.value_or(settings_.resume_grace);
+    remove_bodies_on_leave_ =
+        s.players.remove_bodies_on_leave.value_or(settings_.remove_bodies_on_leave);
+    double const ticks = std::ceil(resume_grace_ * settings_.tick_rate);
+    grace_ticks_ =
+        resume_grace_ > 0.0 ? std::max<std::uint64_t>(1, static_cast<std::uint64_t>(ticks)) : 0;
 }
 
 void room::tell_players(protocol::player_notice const& notice, std::uint64_t except)
@@ -329,6 +493,8 @@ protocol::roster room::current_roster() const
     roster.players.reserve(sessions_.size());
     for (member const& m : sessions_)
         roster.players.push_back({m.client_id, m.name});
+    for (away_player const& a : away_)
+        roster.players.push_back({a.client_id, a.name, true});
     std::sort(roster.players.begin(), roster.players.end(),
               [](protocol::player const& a, protocol::player const& b) { return a.id < b.id; });
     return roster;
@@ -338,7 +504,7 @@ void room::grant_admin(std::shared_ptr<websocket_session> session)
 {
     net::post(strand_, [self = shared_from_this(), session = std::move(session)] {
         for (member& m : self->sessions_)
-            if (m.client_id == session->client_id()) {
+            if (m.connection == session->connection_id()) {
                 m.admin = true;
                 session->send_notice(self->welcome_for(m));
             }
@@ -370,7 +536,7 @@ void room::request_snapshots(std::shared_ptr<websocket_session> session,
 {
     net::post(strand_, [self = shared_from_this(), session = std::move(session), request] {
         for (member& m : self->sessions_) {
-            if (m.client_id != session->client_id())
+            if (m.connection != session->connection_id())
                 continue;
             if (request.form)
                 m.compact = *request.form == "compact";
@@ -403,6 +569,10 @@ std::shared_ptr<std::string const> room::welcome_for(member const& m) const
             .keyframe_interval = settings_.keyframe_interval};
     if (!m.admin && settings_.client.max_bodies_per_client > 0)
         welcome.limits.max_bodies_per_client = settings_.client.max_bodies_per_client;
+    welcome.resume_grace = resume_grace_;
+    welcome.bodies_on_leave = remove_bodies_on_leave_ ? "remove" : "stay";
+    if (resume_grace_ > 0.0 && !m.resume_token.empty())
+        welcome.resume_token = m.resume_token;
     return share(protocol::encode(welcome));
 }
 
@@ -430,6 +600,7 @@ void room::on_tick(beast::error_code ec)
     auto const started_on_processor = thread_processor_time();
     lateness_.record(started - next_tick_at_, period_);    // against its due time
     apply_commands(std::exchange(pending_commands_, {})); // 1. in arrival order
+    end_graces();                                          //    then players that left
     auto const applied = clock::now();
     step_world();                                          // 2. physics
     auto const stepped = clock::now();
@@ -444,8 +615,8 @@ void room::apply_commands(std::vector<command> commands)
 {
     for (command& c : commands) {
         auto from = c.from.lock();
-        if (!from)
-            continue; // the client left; its commands still would apply, but nobody hears
+        if (!from || from->replaced())
+            continue; // the client left (or its player moved to another connection); nobody hears
         std::visit(
             [&](auto const& m) {
                 if constexpr (requires { apply(m, *from, c.admin); })
@@ -661,6 +832,7 @@ void room::replace_world(scene::scene s)
     world_.set_parallel_for(physics_threads_.get(), settings_.physics_threads_from);
     welcome_ = std::move(welcome);
     quanta_ = quanta_for(s, welcome_);
+    use_player_rules(s);
     dt_ = s.dt;
     send_charges_ = s.forces.coulomb.has_value();
     wire_id_of_index_.clear();

@@ -32,7 +32,7 @@ struct room_counters
     std::atomic<std::uint64_t> late_ticks{0}; ///< ticks dropped because the room fell behind
     std::atomic<std::uint64_t> bodies{0};
     std::atomic<std::uint64_t> sessions{0};
-    std::atomic<std::uint64_t> players{0}; ///< the room's players (one per session, for now)
+    std::atomic<std::uint64_t> players{0}; ///< one per session, and the away players kept for a resume
     std::atomic<std::uint64_t> snapshots{0};  ///< snapshots encoded and sent
     /// Snapshots due while the last was still being encoded: not taken (room::send_snapshot)
     std::atomic<std::uint64_t> snapshots_skipped{0};
@@ -82,6 +82,9 @@ public:
         /// s: a compact stream has a keyframe at least this often, besides those a client
         /// needs (it joined, or skipped a delta's base).
         double keyframe_interval = 10.0;
+        /// s and the rule for scenes that set no `players` of their own (the scene's wins).
+        double resume_grace = 0.0;
+        bool remove_bodies_on_leave = false;
     };
 
     /// Builds the scene's world, or (given a checkpoint of this scene) the checkpoint's
@@ -129,8 +132,14 @@ public:
     /// The session's hello said whether it wants player messages; turned on again, it is sent
     /// the roster.
     void hear_players(std::shared_ptr<websocket_session> session, bool hears);
-    /// The session ended (its destructor): the other players are told it left.
-    void leave(std::uint64_t client_id);
+    /// The session ended (its destructor; `connection_id` is its connection_id()): the other
+    /// players are told it left, or, while the room keeps players for a resume, that it is
+    /// away.
+    void leave(std::uint64_t connection_id);
+    /// The session's hello carried a resume token: when it is a player's the room keeps (away,
+    /// or connected elsewhere, whose connection is then closed), the session becomes that
+    /// player and is sent a welcome saying so; otherwise it is answered bad_resume.
+    void resume(std::shared_ptr<websocket_session> session, std::string token);
     /// The session proved itself an admin: it is sent a welcome saying so.
     void grant_admin(std::shared_ptr<websocket_session> session);
     /// The session's hello asked for a snapshot form or rate: from the next snapshot on it
@@ -169,6 +178,15 @@ private:
     /// Replaces the world by `s`'s, fresh: new wire ids for its bodies (the counter goes on),
     /// no spawned bodies, the clock going on from where it stood.
     void replace_world(scene::scene s);
+    /// The resume the session asked for, on the strand.
+    void take_up_player(websocket_session& session, std::string const& token);
+    /// The room's rules for players (its scene's `players`, else the server's).
+    void use_player_rules(scene::scene const& s);
+    /// At a tick: the players whose grace ended leave, and the bodies of those that left go
+    /// when the rules say so.
+    void end_graces();
+    void remove_bodies_of(std::uint64_t client_id);
+    void count_players();
     /// Sends a player notice to every session but `except`'s (0: to all).
     void tell_players(protocol::player_notice const& notice, std::uint64_t except);
     /// The players in the room now, by id.
@@ -287,10 +305,28 @@ private:
         bool compact = false;    ///< it asked for the compact form
         std::uint64_t every = 1; ///< it takes every n-th of the room's snapshots
         bool asked = false;      ///< its hello asked for snapshots: welcomes say what it gets
+        std::uint64_t connection = 0; ///< the session's connection_id(), which never changes
+        std::string resume_token;     ///< the player's secret for a resume; never logged
+        bool resumed = false;         ///< a resume made it the player it is (once a connection)
+    };
+    /// A player whose connection ended, kept for a resume until its grace ends.
+    struct away_player
+    {
+        std::uint64_t client_id = 0;
+        std::optional<std::string> name;
+        std::string resume_token;
+        std::uint64_t until_tick = 0; ///< it leaves at the start of this tick
     };
     /// The quanta of the compact form for a scene: the server's, else from the scene's size.
     protocol::quanta quanta_for(scene::scene const& s, protocol::welcome const& w) const;
     std::vector<member> sessions_;
+    std::vector<away_player> away_;
+    /// Players that left whose bodies go at the next tick (bodies_on_leave "remove").
+    std::vector<std::uint64_t> leaving_bodies_;
+    double resume_grace_ = 0.0;          ///< s; the scene's, else the server's
+    std::uint64_t grace_ticks_ = 0;      ///< resume_grace_ in ticks, rounded up
+    bool remove_bodies_on_leave_ = false; ///< the scene's, else the server's
+    std::uint64_t resume_refusals_ = 0;  ///< for the log
     double snapshot_phase_ = 0.0; ///< snapshot_rate accumulated per tick, due at tick_rate
     std::uint64_t snapshot_index_ = 0; ///< snapshots handed to the encoder
     protocol::quanta quanta_;     ///< of the compact form, for the scene the room runs

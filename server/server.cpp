@@ -171,7 +171,8 @@ server::server(server_options options) : state_(std::make_unique<state>(worker_c
                                 options.client, options.state_dir, options.checkpoint_interval,
                                 options.physics_threads, options.physics_threads_from,
                                 options.position_quantum, options.velocity_quantum,
-                                options.keyframe_interval};
+                                options.keyframe_interval, options.resume_grace,
+                                options.remove_bodies_on_leave};
     if (!options.state_dir.empty()) {
         std::error_code ec;
         std::filesystem::create_directories(options.state_dir, ec);

@@ -78,7 +78,8 @@ websocket_session::websocket_session(tcp::socket&& socket, std::shared_ptr<room>
                                      client_limits limits, std::uint64_t client_id,
                                      std::string admin_token)
     : ws_(std::move(socket)), room_(std::move(joined)), limits_(limits), client_id_(client_id),
-      admin_token_(std::move(admin_token)), tokens_(limits.command_burst), refilled_(clock::now())
+      player_id_(client_id), admin_token_(std::move(admin_token)), tokens_(limits.command_burst),
+      refilled_(clock::now())
 {
     beast::error_code ec;
     // Small replies must not wait behind a snapshot for the client's delayed ACK (Nagle):
@@ -197,6 +198,8 @@ void websocket_session::handle_message(std::string_view text)
     }
     auto& message = *decoded.message;
     if (auto const* hello = std::get_if<protocol::hello>(&message)) {
+        if (hello->resume) // first: the hello's name, if any, then names the player resumed
+            handle_resume(*hello->resume);
         if (hello->name && !named_) // a flood of hellos logs one line
             spdlog::info("client {} ({}) is '{}'", client_id_, peer_, printable(*hello->name));
         named_ = named_ || hello->name.has_value();
@@ -260,6 +263,26 @@ void websocket_session::handle_admin_token(std::string_view token)
     admin_ = true;
     spdlog::info("client {} ({}) is an admin", client_id_, peer_);
     room_->grant_admin(shared_from_this()); // answered by a welcome saying so
+}
+
+// A resume token is a password too: each try takes a command token, and the room compares
+// it in constant time and never logs it. The room answers: a new welcome, or bad_resume.
+void websocket_session::handle_resume(std::string token)
+{
+    if (!take_command_token())
+        return refuse_rate_limited(std::nullopt);
+    room_->resume(shared_from_this(), std::move(token));
+}
+
+void websocket_session::replace()
+{
+    replaced_ = true;
+    net::post(ws_.get_executor(), [self = shared_from_this()] {
+        spdlog::info("client {} ({}): its player {} resumed on another connection; closed",
+                     self->client_id_, self->peer_, self->client_id());
+        self->close_with(static_cast<websocket::close_code>(close_resumed_elsewhere),
+                         "resumed on another connection");
+    });
 }
 
 void websocket_session::refuse_rate_limited(std::optional<std::uint64_t> ref)

@@ -5,6 +5,7 @@
 #include "options.hpp"
 
 
+#include <atomic>
 #include <chrono>
 #include <cstdint>
 #include <deque>
@@ -62,7 +63,22 @@ public:
     /// Closes with 1001 (going away): the server is shutting down.
     void shut_down();
 
-    std::uint64_t client_id() const { return client_id_; }
+    /// The player this connection is: the id its welcome gave, or the one a resume made it
+    /// again. Any thread; it changes only on the room's strand (become).
+    std::uint64_t client_id() const { return player_id_.load(); }
+    /// The id the connection was given when it opened (its first welcome's client): it names
+    /// the connection in the logs and to the room, and never changes.
+    std::uint64_t connection_id() const { return client_id_; }
+    /// The room resumed a player on this connection: from now on it is that player. Called on
+    /// the room's strand.
+    void become(std::uint64_t player_id) { player_id_.store(player_id); }
+    /// Its player was resumed on another connection: closes with close_resumed_elsewhere. The
+    /// room no longer counts it as a member, and applies no command from it any more.
+    void replace();
+    bool replaced() const { return replaced_.load(); }
+
+    /// The close code of a connection whose player a resume took to another connection.
+    static constexpr std::uint16_t close_resumed_elsewhere = 4000;
 
 private:
     using clock = std::chrono::steady_clock;
@@ -73,6 +89,7 @@ private:
     void on_read(beast::error_code ec, std::size_t bytes);
     void handle_message(std::string_view text);
     void handle_admin_token(std::string_view token);
+    void handle_resume(std::string token);
     bool take_command_token();
     void refuse_rate_limited(std::optional<std::uint64_t> ref);
 
@@ -91,7 +108,9 @@ private:
     beast::flat_buffer buffer_;
     std::shared_ptr<room> room_;
     client_limits limits_;
-    std::uint64_t client_id_;
+    std::uint64_t client_id_;                ///< the connection's (connection_id)
+    std::atomic<std::uint64_t> player_id_;   ///< the player's (client_id)
+    std::atomic<bool> replaced_{false};      ///< its player was resumed elsewhere
     std::string admin_token_; ///< the server's; empty: nobody is an admin
     bool admin_ = false;      ///< a hello carried the admin token
     std::string peer_; ///< address:port, for logs

@@ -121,6 +121,46 @@ TEST(Connection, KnowsTheRoomsPlayersAndHandsOutEachNotice)
     EXPECT_FALSE(ann.next_player_notice(100ms)); // each was handed out once
 }
 
+// A connection opened with a resume token is that player again: its id, a new token, and
+// its body (a remove of it is its own). A token spent already is refused, and that connection
+// goes on as the fresh player its first welcome named.
+TEST(Connection, OpensAsThePlayerItsResumeTokenNames)
+{
+    server::server_options o;
+    o.resume_grace = 60.0; // the example scenes set no players of their own
+    running_server s(std::move(o));
+    std::uint64_t ann_id = 0;
+    std::uint64_t body = 0;
+    std::string token;
+    {
+        connection ann(s.url(), {.name = "ann"});
+        ASSERT_TRUE(ann.resume_token());
+        token = *ann.resume_token();
+        ann_id = ann.welcome().client;
+        EXPECT_FALSE(ann.resumed());
+        auto const ack = ann.await_reply(ann.send(ball_at({1, 2, 3})), 10s);
+        ASSERT_TRUE(ack && std::holds_alternative<protocol::ack>(*ack));
+        body = *std::get<protocol::ack>(*ack).id;
+    } // closed: the room keeps ann for her grace
+
+    connection back(s.url(), {.name = "ann", .resume_token = token});
+    EXPECT_TRUE(back.resumed());
+    EXPECT_FALSE(back.resume_refusal());
+    EXPECT_EQ(back.welcome().client, ann_id);
+    ASSERT_TRUE(back.resume_token());
+    EXPECT_NE(*back.resume_token(), token);
+    auto const removed = back.await_reply(back.send(protocol::remove{.id = body}), 10s);
+    ASSERT_TRUE(removed);
+    EXPECT_TRUE(std::holds_alternative<protocol::ack>(*removed));
+
+    connection stranger(s.url(), {.resume_token = token}); // spent by `back`
+    EXPECT_FALSE(stranger.resumed());
+    ASSERT_TRUE(stranger.resume_refusal());
+    EXPECT_EQ(stranger.resume_refusal()->code, protocol::error_code::bad_resume);
+    EXPECT_NE(stranger.welcome().client, ann_id);
+    EXPECT_TRUE(stranger.is_open());
+}
+
 TEST(Connection, SendGivesFreshRefsAndAwaitReplyTheirAnswers)
 {
     running_server s;

@@ -468,6 +468,15 @@ std::vector<bad_case> bad_client_messages()
                  "/ref: missing (required)"},
         bad_case{"admin_token_as_a_number", R"({"type": "hello", "admin_token": 12345})",
                  error_code::wrong_type, "/admin_token: must be a string, got number 12345"},
+        // A resume token is a secret: a refusal says only its length, never its text.
+        bad_case{"resume_as_a_number", R"({"type": "hello", "resume": 12345})",
+                 error_code::wrong_type, "/resume: must be a string, got number 12345"},
+        bad_case{"resume_empty", R"({"type": "hello", "resume": ""})", error_code::bad_value,
+                 "/resume: must be 1 to 128 bytes (a welcome's resume_token), got 0"},
+        bad_case{"resume_too_long", R"({"type": "hello", "resume": ")" + std::string(129, 'f') + R"("})",
+                 error_code::bad_value, "/resume: must be 1 to 128 bytes (a welcome's resume_token), got 129"},
+        bad_case{"resume_as_null", R"({"type": "hello", "resume": null})", error_code::wrong_type,
+                 "/resume: must be a string, got null"},
         bad_case{"unsupported_protocol", R"({"type": "hello", "protocol": 2})",
                  error_code::unsupported_protocol,
                  "/protocol: protocol 2 is not spoken here (this side speaks 1)"},
@@ -527,6 +536,14 @@ TEST(DecodeServerMessage, RefusesWhatAClientCouldMisread)
                                            "of 3 numbers [x, y, z], got array of 2");
 
     welcome_doc = json::parse(encode(samples::sample_welcome()));
+    welcome_doc["bodies_on_leave"] = "vanish";
+    EXPECT_EQ(code_of(welcome_doc.dump()),
+              R"(bad_value /bodies_on_leave: must be "stay" or "remove", got "vanish")");
+    welcome_doc["bodies_on_leave"] = "remove";
+    welcome_doc["resume_grace"] = -1;
+    EXPECT_EQ(code_of(welcome_doc.dump()), "bad_value /resume_grace: must be >= 0, got -1");
+
+    welcome_doc = json::parse(encode(samples::sample_welcome()));
     welcome_doc["scene"]["walls"][1].erase("damping");
     EXPECT_EQ(code_of(welcome_doc.dump()),
               "missing_field /scene/walls/1/damping: missing (required)");
@@ -537,7 +554,7 @@ TEST(DecodeServerMessage, RefusesWhatAClientCouldMisread)
         code_of(R"({"type": "ping", "ref": 1})"),
         R"(unknown_type /type: unknown message type "ping" (known: welcome, ack, error, snapshot, pong, players, player))");
     EXPECT_EQ(code_of(R"({"type": "player", "change": "kicked", "id": 3})"),
-              R"(bad_value /change: must be "joined", "renamed" or "left", got "kicked")");
+              R"(bad_value /change: must be "joined", "renamed", "away", "back" or "left", got "kicked")");
     EXPECT_EQ(code_of(R"({"type": "players", "players": [{"id": 1, "name": ""}]})"),
               "bad_value /players/0/name: must be 1 to 64 bytes of UTF-8, got 0");
 

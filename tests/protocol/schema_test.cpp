@@ -109,6 +109,9 @@ std::vector<broken_case> broken_server_messages()
     });
     add("limits_negative", welcome_doc, [](json& m) { m["limits"]["max_bodies"] = -1; });
     add("client_id_as_string", welcome_doc, [](json& m) { m["client"] = "3"; });
+    add("welcome_bodies_on_leave_unknown", welcome_doc, [](json& m) { m["bodies_on_leave"] = "vanish"; });
+    add("welcome_negative_resume_grace", welcome_doc, [](json& m) { m["resume_grace"] = -1; });
+    add("welcome_empty_resume_token", welcome_doc, [](json& m) { m["resume_token"] = ""; });
 
     json const snapshot_doc = sample_snapshot();
     add("snapshot_position_of_strings", snapshot_doc,

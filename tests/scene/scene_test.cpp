@@ -203,6 +203,16 @@ INSTANTIATE_TEST_SUITE_P(
                  "/snapshots/rate: unknown field"},
         bad_case{"overflowing_quantum", R"({"dt": 0.1, "snapshots": {"position_quantum": 1e999}})",
                  "not valid JSON", false},
+        bad_case{"negative_resume_grace", R"({"dt": 0.1, "players": {"resume_grace": -1}})",
+                 "/players/resume_grace: must be >= 0, got -1"},
+        bad_case{"resume_grace_beyond_a_day", R"({"dt": 0.1, "players": {"resume_grace": 86401}})",
+                 "/players/resume_grace: must be at most 86400 s (a day), got 86401"},
+        bad_case{"resume_grace_as_string", R"({"dt": 0.1, "players": {"resume_grace": "30s"}})",
+                 "/players/resume_grace: must be a number, got string"},
+        bad_case{"unknown_bodies_on_leave", R"({"dt": 0.1, "players": {"bodies_on_leave": "vanish"}})",
+                 "/players/bodies_on_leave: must be \"stay\" or \"remove\", got \"vanish\""},
+        bad_case{"unknown_players_field", R"({"dt": 0.1, "players": {"max": 4}})",
+                 "/players/max: unknown field"},
         bad_case{"bodies_not_array", R"({"dt": 0.1, "bodies": {}})", "/bodies: must be an array"},
         bad_case{"unknown_collision_mode", R"({"dt": 0.1, "collisions": {"mode": "sometimes"}})",
                  "/collisions/mode: unknown collision mode 'sometimes' (known: off, discrete, continuous)"},
@@ -375,6 +385,25 @@ TEST(SceneSnapshots, QuantaAreReadAndDefaultToTheServersChoice)
     std::vector<std::string> const set{"snapshots.position_quantum=0.25"};
     EXPECT_EQ(parse_scene(R"({"dt": 0.1})", "test.json", set).snapshots.position_quantum, 0.25);
     EXPECT_TRUE(schema().accepts(nlohmann::json::parse(R"({"dt": 0.1, "snapshots": {"position_quantum": 1e-9, "velocity_quantum": 1e6}})")));
+}
+
+TEST(ScenePlayers, RulesAreReadAndLeftOutOnesAreTheServers)
+{
+    scene const both = parse_scene(R"({"dt": 0.1, "players": {"resume_grace": 30, "bodies_on_leave": "remove"}})",
+                                   "test.json");
+    EXPECT_EQ(both.players.resume_grace, 30.0);
+    EXPECT_EQ(both.players.remove_bodies_on_leave, true);
+    scene const stay = parse_scene(R"({"dt": 0.1, "players": {"bodies_on_leave": "stay"}})", "test.json");
+    EXPECT_FALSE(stay.players.resume_grace); // the server's
+    EXPECT_EQ(stay.players.remove_bodies_on_leave, false);
+    scene const none = parse_scene(R"({"dt": 0.1})", "test.json");
+    EXPECT_FALSE(none.players.resume_grace);
+    EXPECT_FALSE(none.players.remove_bodies_on_leave);
+    std::vector<std::string> const set{"players.resume_grace=0"};
+    EXPECT_EQ(parse_scene(R"({"dt": 0.1})", "test.json", set).players.resume_grace, 0.0);
+    EXPECT_TRUE(schema().accepts(nlohmann::json::parse(
+        R"({"dt": 0.1, "players": {"resume_grace": 86400, "bodies_on_leave": "stay"}})")));
+    EXPECT_FALSE(schema().accepts(nlohmann::json::parse(R"({"dt": 0.1, "players": {"bodies_on_leave": "drop"}})")));
 }
 
 TEST(SceneGenerators, AreSeededAndStayInsideTheirLimits)

@@ -19,6 +19,7 @@
 
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <optional>
 #include <string>
 #include <variant>
@@ -303,6 +304,17 @@ std::vector<hostile_case> catalogue()
         {"hello with an admin token of 60000 bytes",
          R"({"type":"hello","admin_token":")" + std::string(60000, 'a') + R"("})", refused("forbidden", "/admin_token")},
         {"admin token as a number", R"({"type":"hello","admin_token":1234})", refused("wrong_type", "/admin_token")},
+        // Resume tokens (the lab keeps no player for a resume: its grace is 0). A token is a
+        // secret: the refusals say its length at most, never its text.
+        {"resume token, none kept", R"({"type":"hello","resume":"0123456789abcdef0123456789abcdef"})",
+         refused("bad_resume", "/resume")},
+        {"resume token of 129 bytes", R"({"type":"hello","resume":")" + std::string(129, 'f') + R"("})",
+         refused("bad_value", "/resume")},
+        {"resume token of 60000 bytes", R"({"type":"hello","resume":")" + std::string(60000, 'f') + R"("})",
+         refused("bad_value", "/resume")},
+        {"empty resume token", R"({"type":"hello","resume":""})", refused("bad_value", "/resume")},
+        {"resume token as a number", R"({"type":"hello","resume":1234})", refused("wrong_type", "/resume")},
+        {"resume token as an object", R"({"type":"hello","resume":{"token":"x"}})", refused("wrong_type", "/resume")},
         {"load_scene with a file name", R"({"type":"load_scene","ref":105,"scene":"arena.json"})",
          refused("wrong_type", "/scene", 105)},
         {"load_scene without a scene", R"({"type":"load_scene","ref":106})", refused("missing_field", "/scene", 106)},
@@ -586,6 +598,91 @@ TEST(HostileInput, EachIsAnsweredAsDocumentedAndChangesNothing)
     json const after = observer.snapshot_at_or_after(ack->at("tick").get<std::uint64_t>());
     EXPECT_EQ(after.at("bodies").at("id").size(), 3U);
     EXPECT_EQ(lab->counters().bodies.load(), 3U);
+}
+
+// Resume tokens that name no player this connection may become, in rooms that keep players
+// for a resume: a wrong one, one of another room, one used already (replayed), one of the
+// connection itself. Each is refused bad_resume, the connection stays the player it was, and
+// the world is unchanged.
+TEST(HostileInput, ResumeTokensThatNameNoPlayerHereAreRefusedAndChangeNothing)
+{
+    json scene = lab_scene();
+    scene["players"] = {{"resume_grace", 600}, {"bodies_on_leave", "remove"}};
+    server_options o = lab_options();
+    o.rooms.clear();
+    for (std::string const room : {"den", "attic"})
+        o.rooms.push_back({room, test_support::write_scene(fs::path(testing::TempDir()) /
+                                                               ("kugel_hostile_resume_" + room + ".json"),
+                                                           scene)});
+    test_support::in_process_server s(o);
+    checked_client observer(s.port(), "/ws/den");
+    json last = observer.snapshot_at_or_after(1);
+
+    auto const token_of = [](json const& welcome) { return welcome.at("resume_token").get<std::string>(); };
+    // A player of the attic, and a player of the den who spawns a body, drops, and is resumed
+    // once (so that its first token is spent).
+    checked_client attic(s.port(), "/ws/attic");
+    std::string const attic_token = token_of(*attic.next_answer());
+    std::string spent_token;
+    std::string own_token;
+    std::uint64_t spawned_at = 0;
+    auto resumed = std::make_unique<checked_client>(s.port(), "/ws/den");
+    {
+        checked_client ann(s.port(), "/ws/den");
+        spent_token = token_of(*ann.next_answer());
+        ann.raw().send(json{{"type", "spawn"}, {"ref", 1}, {"body", {{"position", {1, 2, 3}}, {"radius", 0.1}, {"mass", 1}}}});
+        json const ack = *ann.next_answer();
+        ASSERT_EQ(ack.at("type"), "ack") << ack.dump();
+        spawned_at = ack.at("tick").get<std::uint64_t>();
+    }
+    resumed->next_answer(); // its welcome
+    resumed->raw().send(json{{"type", "hello"}, {"resume", spent_token}});
+    json const welcome = *resumed->next_answer();
+    ASSERT_EQ(welcome.at("type"), "welcome") << welcome.dump();
+    own_token = token_of(welcome);
+    last = observer.snapshot_at_or_after(spawned_at); // the world the attempts must leave alone
+
+    struct attempt
+    {
+        std::string what;
+        std::string token;
+        std::string says;
+    };
+    std::vector<attempt> const attempts{
+        {"a wrong token", std::string(32, '0'), "no player of this room holds this token"},
+        {"a token of another room", attic_token, "no player of this room holds this token"},
+        {"a replayed token", spent_token, "no player of this room holds this token"},
+        {"a wrong token of the right length and alphabet", std::string(own_token.rbegin(), own_token.rend()),
+         "no player of this room holds this token"},
+    };
+    std::uint64_t sync_ref = 1'000;
+    for (attempt const& a : attempts) {
+        SCOPED_TRACE(a.what);
+        json const before = observer.snapshot_at_or_after(last.at("tick").get<std::uint64_t>() + 1);
+        std::uint64_t const bodies_before = s.bodies("den");
+        checked_client hostile(s.port(), "/ws/den");
+        std::uint64_t const id = hostile.next_answer()->at("client").get<std::uint64_t>();
+        hostile.raw().send(json{{"type", "hello"}, {"resume", a.token}});
+        json const refusal = *hostile.next_answer();
+        EXPECT_EQ(refusal.value("code", ""), "bad_resume") << refusal.dump();
+        std::string const message = refusal.value("message", "");
+        EXPECT_EQ(message.rfind("/resume: " + a.says, 0), 0U) << message;
+        EXPECT_EQ(message.find(a.token), std::string::npos) << "the token was echoed";
+        EXPECT_NE(message.find("stays player " + std::to_string(id)), std::string::npos) << message;
+        hostile.raw().send(json{{"type", "ping"}, {"ref", ++sync_ref}});
+        json const pong = *hostile.next_answer();
+        ASSERT_EQ(pong.at("type"), "pong") << pong.dump();
+        last = observer.snapshot_at_or_after(pong.at("tick").get<std::uint64_t>() + 1);
+        EXPECT_EQ(last.at("bodies"), before.at("bodies")) << "the world changed";
+        EXPECT_EQ(s.bodies("den"), bodies_before);
+    }
+    // Its own token, sent by the connection that holds it: it is that player already.
+    checked_client self(s.port(), "/ws/den");
+    std::string const self_token = token_of(*self.next_answer());
+    self.raw().send(json{{"type", "hello"}, {"resume", self_token}});
+    json const own = *self.next_answer();
+    EXPECT_EQ(own.value("code", ""), "bad_resume") << own.dump();
+    EXPECT_EQ(own.value("message", "").rfind("/resume: that is this connection's own token", 0), 0U) << own.dump();
 }
 
 } // namespace
