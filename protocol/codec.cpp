@@ -195,31 +195,24 @@ constexpr auto fields(std::type_identity<snapshot_request>)
                       member("rate", &snapshot_request::rate, above_zero)};
 }
 
-/// A player's name: shown to other players, so bounded and free of control characters (JSON
-/// has already refused invalid UTF-8).
-void player_name(std::string const& name, location const& at)
+/// Text shown to other clients (a player's name, a body's tag): 1 to `most` bytes, free of
+/// control characters (JSON has already refused invalid UTF-8).
+void shown_text(std::string const& text, std::size_t most, location const& at)
 {
-    if (name.empty() || name.size() > max_player_name_bytes)
-        at.fail(error_code::bad_value, "must be 1 to " + std::to_string(max_player_name_bytes) +
-                                           " bytes of UTF-8, got " + std::to_string(name.size()));
-    for (char const ch : name)
+    if (text.empty() || text.size() > most)
+        at.fail(error_code::bad_value, "must be 1 to " + std::to_string(most) + " bytes of UTF-8, got " +
+                                           std::to_string(text.size()));
+    for (char const ch : text)
         if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
             at.fail(error_code::bad_value, "must not hold control characters (found the byte " +
                                                std::to_string(static_cast<unsigned>(c)) + ")");
 }
 
-/// A body's tag: shown with the body to every client, so short and free of control characters
-/// (JSON has already refused invalid UTF-8).
-void body_tag(std::string const& tag, location const& at)
-{
-    if (tag.empty() || tag.size() > max_body_tag_bytes)
-        at.fail(error_code::bad_value, "must be 1 to " + std::to_string(max_body_tag_bytes) +
-                                           " bytes of UTF-8, got " + std::to_string(tag.size()));
-    for (char const ch : tag)
-        if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
-            at.fail(error_code::bad_value, "must not hold control characters (found the byte " +
-                                               std::to_string(static_cast<unsigned>(c)) + ")");
-}
+/// A player's name: shown to the room's other players.
+void player_name(std::string const& name, location const& at) { shown_text(name, max_player_name_bytes, at); }
+
+/// A body's tag: shown with the body to every client.
+void body_tag(std::string const& tag, location const& at) { shown_text(tag, max_body_tag_bytes, at); }
 
 /// A snapshot's tag column: a tag, or "" for a body without one.
 void tag_column(std::vector<std::string> const& tags, location const& at)

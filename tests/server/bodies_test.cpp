@@ -27,6 +27,7 @@ namespace {
 
 using nlohmann::json;
 using protocol::testing::schemas;
+using test_support::index_of;
 using test_support::ws_client;
 
 constexpr char const* admin_token = "yard-keeper";
@@ -130,15 +131,6 @@ json spawn_body(std::array<double, 3> position, json extra = json::object())
     json body = {{"position", position}, {"radius", 0.25}, {"mass", 1.0}};
     body.update(extra);
     return {{"type", "spawn"}, {"body", body}};
-}
-
-std::ptrdiff_t index_of(json const& snapshot, std::uint64_t id)
-{
-    auto const& ids = snapshot.at("bodies").at("id");
-    for (std::size_t i = 0; i < ids.size(); ++i)
-        if (ids[i].get<std::uint64_t>() == id)
-            return static_cast<std::ptrdiff_t>(i);
-    return -1;
 }
 
 std::array<double, 3> column3(json const& snapshot, char const* column, std::uint64_t id)

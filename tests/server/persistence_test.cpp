@@ -28,6 +28,7 @@ namespace kugel::server {
 namespace {
 
 using nlohmann::json;
+using test_support::index_of;
 using test_support::ws_client;
 namespace fs = std::filesystem;
 
@@ -118,15 +119,6 @@ json snapshot_at_or_after(ws_client& c, std::uint64_t tick)
         if (s.at("tick").get<std::uint64_t>() >= tick)
             return s;
     }
-}
-
-std::ptrdiff_t index_of(json const& snapshot, std::uint64_t id)
-{
-    auto const& ids = snapshot.at("bodies").at("id");
-    for (std::size_t i = 0; i < ids.size(); ++i)
-        if (ids[i].get<std::uint64_t>() == id)
-            return static_cast<std::ptrdiff_t>(i);
-    return -1;
 }
 
 /// Runs the default room (the arena) with a spawn and a remove so that ids have a gap,

@@ -34,6 +34,7 @@ namespace kugel::server {
 namespace {
 
 using nlohmann::json;
+using test_support::index_of;
 using test_support::ws_client;
 namespace fs = std::filesystem;
 
@@ -114,16 +115,6 @@ json spawn_at(std::uint64_t ref, std::array<double, 3> position, double radius =
     return {{"type", "spawn"},
             {"ref", ref},
             {"body", {{"position", position}, {"radius", radius}, {"mass", mass}}}};
-}
-
-/// Index of body `id` in a snapshot's columns, or -1.
-std::ptrdiff_t index_of(json const& snapshot, std::uint64_t id)
-{
-    auto const& ids = snapshot.at("bodies").at("id");
-    for (std::size_t i = 0; i < ids.size(); ++i)
-        if (ids[i].get<std::uint64_t>() == id)
-            return static_cast<std::ptrdiff_t>(i);
-    return -1;
 }
 
 std::array<double, 3> column3(json const& snapshot, char const* column, std::ptrdiff_t i)

@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include <chrono>
+#include <cstddef>
 #include <cstdint>
 #include <memory>
 #include <optional>
@@ -64,5 +65,15 @@ private:
     std::unique_ptr<connection> c_;
     bool hears_players_ = false;
 };
+
+/// Index of body `id` in a full snapshot's columns, or -1 when it is not there.
+inline std::ptrdiff_t index_of(nlohmann::json const& snapshot, std::uint64_t id)
+{
+    auto const& ids = snapshot.at("bodies").at("id");
+    for (std::size_t i = 0; i < ids.size(); ++i)
+        if (ids[i].get<std::uint64_t>() == id)
+            return static_cast<std::ptrdiff_t>(i);
+    return -1;
+}
 
 } // namespace kugel::test_support
