@@ -343,6 +343,43 @@ std::vector<physics::wall> read_box(json const& value, location const& at, physi
     return walls;
 }
 
+/// A sensor: a name and exactly one of `box` {min, max} or `ball` {centre, radius}; the
+/// engine's own checks (sensor::invalid) name the volume that fails them.
+sensor_settings read_sensor(json const& value, location const& at)
+{
+    object(value, at, {"name", "box", "ball"});
+    sensor_settings out;
+    location const name_at = at / "name";
+    out.name = text(required(value, "name", at), name_at);
+    if (out.name.empty() || out.name.size() > max_sensor_name_bytes)
+        name_at.fail("a sensor's name must be 1 to " + std::to_string(max_sensor_name_bytes) +
+                     " bytes of UTF-8, got " + std::to_string(out.name.size()));
+    for (char const ch : out.name)
+        if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
+            name_at.fail("a sensor's name must not hold control characters (found the byte " +
+                         std::to_string(static_cast<unsigned>(c)) + ")");
+    auto const* box = find(value, "box");
+    auto const* ball = find(value, "ball");
+    if ((box != nullptr) == (ball != nullptr))
+        at.fail("a sensor needs exactly one of \"box\" ({min, max}) or \"ball\" ({centre, radius})");
+    location const volume_at = at / (box ? "box" : "ball");
+    if (box) {
+        object(*box, volume_at, {"min", "max"});
+        physics::aabb b;
+        b.min = vector3(required(*box, "min", volume_at), volume_at / "min");
+        b.max = vector3(required(*box, "max", volume_at), volume_at / "max");
+        out.volume = physics::sensor::of_box(b);
+    } else {
+        object(*ball, volume_at, {"centre", "radius"});
+        physics::vec3 const c = vector3(required(*ball, "centre", volume_at), volume_at / "centre");
+        double const r = number(required(*ball, "radius", volume_at), volume_at / "radius");
+        out.volume = physics::sensor::of_ball(c, r);
+    }
+    if (auto why = out.volume.invalid())
+        volume_at.fail(std::string(*why) + (box ? "" : ", got a radius of " + format(out.volume.radius)));
+    return out;
+}
+
 obstacle_settings read_obstacle(json const& value, location const& at)
 {
     object(value, at, {"centre", "half_extents", "rotation", "points", "damping", "friction"});
@@ -560,7 +597,7 @@ scene read_scene(json const& doc, location const& at)
     object(doc, at,
            {"$schema", "name", "description", "dt", "substeps", "integrator", "tolerance", "forces",
              "collisions", "walls", "box", "obstacles", "bodies", "generators", "snapshots", "permissions",
-             "players"});
+             "players", "sensors"});
     scene s;
     s.name = optional_field(doc, "name", at, std::string("unnamed"), text);
     s.description = optional_field(doc, "description", at, std::string(), text);
@@ -613,6 +650,18 @@ scene read_scene(json const& doc, location const& at)
             (at / "obstacles").fail("must be an array of boxes, got " + describe(*obstacles));
         for (std::size_t i = 0; i < obstacles->size(); ++i)
             s.obstacles.push_back(read_obstacle((*obstacles)[i], at / "obstacles" / i));
+    }
+    if (auto const* sensors = find(doc, "sensors")) {
+        if (!sensors->is_array())
+            (at / "sensors").fail("must be an array of sensors, got " + describe(*sensors));
+        for (std::size_t i = 0; i < sensors->size(); ++i) {
+            location const s_at = at / "sensors" / i;
+            s.sensors.push_back(read_sensor((*sensors)[i], s_at));
+            for (std::size_t j = 0; j < i; ++j)
+                if (s.sensors[j].name == s.sensors.back().name)
+                    (s_at / "name").fail("sensor names must be unique: '" + s.sensors.back().name +
+                                         "' is also /sensors/" + std::to_string(j));
+        }
     }
     if (auto const* bodies = find(doc, "bodies")) {
         if (!bodies->is_array())
@@ -776,6 +825,8 @@ physics::world build_world(scene const& s)
         w.add_wall(wall);
     for (auto const& o : s.obstacles)
         w.add_obstacle({o.box, o.damping, o.friction});
+    for (auto const& sensor : s.sensors)
+        w.add_sensor(sensor.volume);
     if (s.forces.uniform_field)
         w.add_force(std::make_unique<physics::uniform_field>(s.forces.uniform_field->g));
     if (auto const& g = s.forces.gravity) {

@@ -151,6 +151,16 @@ struct player_settings
     static constexpr double max_resume_grace = 86'400.0; ///< s: a day; more is a typo
 };
 
+/// The longest sensor name, in bytes of UTF-8 (an event names its sensor).
+inline constexpr std::size_t max_sensor_name_bytes = 32;
+
+/// A named sensor (physics/sensors.hpp): a goal, a zone. Events name it.
+struct sensor_settings
+{
+    std::string name; ///< 1 to max_sensor_name_bytes bytes, no control characters, unique
+    physics::sensor volume;
+};
+
 /// A validated scene: everything a world needs, in engine units.
 struct scene
 {
@@ -165,6 +175,8 @@ struct scene
     std::vector<physics::wall> walls; ///< including the six of `box`
     std::optional<physics::aabb> box; ///< the `box` shortcut's region, when given
     std::vector<obstacle_settings> obstacles;
+    /// The world's sensors, in this order (sensor i of the world is sensors[i]).
+    std::vector<sensor_settings> sensors;
     std::vector<physics::body_desc> bodies;
     /// bodies[i]'s tag, "" for none (the world's first bodies, in this order, are these)
     std::vector<std::string> body_tags;
@@ -189,8 +201,8 @@ scene parse_scene(std::string_view text, std::string const& source,
 /// Reads and parses a scene file; throws scene_error when it cannot be read or is invalid.
 scene load_scene(std::filesystem::path const& file, std::span<std::string const> overrides = {});
 
-/// Creates the world a scene describes: its settings, force models and bodies, generators
-/// expanded in order after the explicit bodies.
+/// Creates the world a scene describes: its settings, force models, sensors (in order) and
+/// bodies, generators expanded in order after the explicit bodies.
 physics::world build_world(scene const& s);
 
 /// The sphere that holds every body, obstacle and the `box`: what a client frames its

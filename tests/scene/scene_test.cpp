@@ -171,6 +171,45 @@ INSTANTIATE_TEST_SUITE_P(
                  "/bodies/0/tag: a body's tag must not hold control characters (found the byte 9)"},
         bad_case{"tag_as_a_number", R"({"dt": 0.1, "bodies": [{"position": [0,0,0], "mass": 1, "tag": 5}]})",
                  "/bodies/0/tag: must be a string, got"},
+        bad_case{"sensors_not_an_array", R"({"dt": 0.1, "sensors": {"name": "goal"}})",
+                 "/sensors: must be an array of sensors, got object"},
+        bad_case{"sensor_without_a_name", R"({"dt": 0.1, "sensors": [{"box": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/sensors/0/name: missing (required)"},
+        bad_case{"sensor_name_empty", R"({"dt": 0.1, "sensors": [{"name": "", "ball": {"centre": [0,0,0], "radius": 1}}]})",
+                 "/sensors/0/name: a sensor's name must be 1 to 32 bytes of UTF-8, got 0"},
+        bad_case{"sensor_name_too_long",
+                 R"({"dt": 0.1, "sensors": [{"name": "abcdefghijklmnopqrstuvwxyz0123456", "ball": {"centre": [0,0,0], "radius": 1}}]})",
+                 "/sensors/0/name: a sensor's name must be 1 to 32 bytes of UTF-8, got 33"},
+        bad_case{"sensor_name_with_a_newline",
+                 R"({"dt": 0.1, "sensors": [{"name": "go\nal", "ball": {"centre": [0,0,0], "radius": 1}}]})",
+                 "/sensors/0/name: a sensor's name must not hold control characters (found the byte 10)"},
+        bad_case{"sensor_names_repeated",
+                 R"({"dt": 0.1, "sensors": [{"name": "goal", "ball": {"centre": [0,0,0], "radius": 1}},
+                     {"name": "zone", "ball": {"centre": [5,0,0], "radius": 1}},
+                     {"name": "goal", "box": {"min": [0,0,0], "max": [1,1,1]}}]})",
+                 "/sensors/2/name: sensor names must be unique: 'goal' is also /sensors/0", false},
+        bad_case{"sensor_with_both_shapes",
+                 R"({"dt": 0.1, "sensors": [{"name": "goal", "box": {"min": [0,0,0], "max": [1,1,1]}, "ball": {"centre": [0,0,0], "radius": 1}}]})",
+                 "/sensors/0: a sensor needs exactly one of \"box\" ({min, max}) or \"ball\" ({centre, radius})"},
+        bad_case{"sensor_without_a_shape", R"({"dt": 0.1, "sensors": [{"name": "goal"}]})",
+                 "/sensors/0: a sensor needs exactly one of"},
+        bad_case{"sensor_box_inverted",
+                 R"({"dt": 0.1, "sensors": [{"name": "a", "ball": {"centre": [0,0,0], "radius": 1}},
+                     {"name": "b", "ball": {"centre": [0,0,0], "radius": 2}},
+                     {"name": "goal", "box": {"min": [0,0,0], "max": [1,-1,1]}}]})",
+                 "/sensors/2/box: a sensor's box needs min <= max on every axis", false},
+        bad_case{"sensor_ball_radius_zero", R"({"dt": 0.1, "sensors": [{"name": "zone", "ball": {"centre": [0,0,0], "radius": 0}}]})",
+                 "/sensors/0/ball: a sensor's radius must be > 0 and finite, got a radius of 0"},
+        bad_case{"sensor_ball_radius_overflowing",
+                 R"({"dt": 0.1, "sensors": [{"name": "zone", "ball": {"centre": [0,0,0], "radius": 1e200}}]})",
+                 "/sensors/0/ball: a sensor's radius must be > 0 and finite", false},
+        bad_case{"sensor_box_missing_max", R"({"dt": 0.1, "sensors": [{"name": "goal", "box": {"min": [0,0,0]}}]})",
+                 "/sensors/0/box/max: missing (required)"},
+        bad_case{"sensor_unknown_field",
+                 R"({"dt": 0.1, "sensors": [{"name": "goal", "ball": {"centre": [0,0,0], "radius": 1}, "colour": "red"}]})",
+                 "/sensors/0/colour: unknown field (known here: name, box, ball)"},
+        bad_case{"sensor_ball_centre_short", R"({"dt": 0.1, "sensors": [{"name": "goal", "ball": {"centre": [0,0], "radius": 1}}]})",
+                 "/sensors/0/ball/centre: must be an array of 3 numbers"},
         bad_case{"unknown_push_rule", R"({"dt": 0.1, "permissions": {"push": "everyone"}})",
                  "/permissions/push: unknown rule 'everyone' (known: anyone, owner, admins)"},
         bad_case{"remove_rule_anyone", R"({"dt": 0.1, "permissions": {"remove": "anyone"}})",
@@ -518,6 +557,42 @@ TEST(SceneBodies, TagsAndPermissionsAreRead)
     EXPECT_EQ(name(push_rule::admins), "admins");
     EXPECT_EQ(parse_scene(R"({"dt": 1, "permissions": {"push": "admins"}})", "test.json").permissions.push,
               push_rule::admins);
+}
+
+// Sensors reach the world in the scene's order, with their names kept beside them; a scene
+// without any has none.
+TEST(SceneSensors, AreReadInOrderAndAddedToTheWorld)
+{
+    scene const plain = parse_scene(R"({"dt": 1})", "test.json");
+    EXPECT_TRUE(plain.sensors.empty());
+    EXPECT_TRUE(build_world(plain).sensors().empty());
+
+    scene const s = parse_scene(
+        R"({"dt": 1, "sensors": [
+              {"name": "goal", "box": {"min": [9, -1, 0], "max": [10, 1, 2]}},
+              {"name": "zone 🎯", "ball": {"centre": [0, 0, 1], "radius": 1.5}},
+              {"name": "line", "box": {"min": [5, -10, -10], "max": [5, 10, 10]}}],
+            "bodies": [{"position": [0, 0, 1], "mass": 1}]})",
+        "test.json");
+    ASSERT_EQ(s.sensors.size(), 3U);
+    EXPECT_EQ(s.sensors[0].name, "goal");
+    EXPECT_EQ(s.sensors[1].name, "zone 🎯");
+    EXPECT_EQ(s.sensors[2].name, "line");
+    physics::world w = build_world(s);
+    ASSERT_EQ(w.sensors().size(), 3U);
+    EXPECT_EQ(w.sensors()[0].kind, physics::sensor::shape::box);
+    EXPECT_EQ(w.sensors()[0].box.min, physics::vec3(9, -1, 0));
+    EXPECT_EQ(w.sensors()[0].box.max, physics::vec3(10, 1, 2));
+    EXPECT_EQ(w.sensors()[1].kind, physics::sensor::shape::ball);
+    EXPECT_EQ(w.sensors()[1].centre, physics::vec3(0, 0, 1));
+    EXPECT_EQ(w.sensors()[1].radius, 1.5);
+    EXPECT_EQ(w.sensors()[2].box.min.x(), w.sensors()[2].box.max.x()); // a flat box is allowed
+    // the body starts in the ball: the world reports it entering sensor 1 at the first step
+    w.step(1.0);
+    auto const events = w.sensor_events();
+    ASSERT_EQ(events.size(), 1U);
+    EXPECT_EQ(events[0].sensor, 1U);
+    EXPECT_TRUE(events[0].entered);
 }
 
 TEST(SceneBodies, DefaultsAndStaticBodies)
