@@ -99,7 +99,7 @@ public:
             return fail_to_connect("WebSocket handshake with " + to_string(url_) +
                                    " failed: " + ec.message());
         if (!options_.name.empty() || options_.snapshots || !options_.players ||
-            options_.resume_token) {
+            options_.resume_token || options_.events) {
             {
                 std::lock_guard lock(mutex_);
                 ++unsent_; // on_write counts every message down
@@ -114,6 +114,7 @@ public:
             hello.snapshots = options_.snapshots;
             if (!options_.players)
                 hello.players = false;
+            hello.events = options_.events;
             queue_write(std::make_shared<std::string const>(protocol::encode(hello)));
         }
         do_read();
@@ -300,6 +301,15 @@ public:
         notices_.push_back(std::move(notice));
         while (notices_.size() > std::max<std::size_t>(options_.kept_player_notices, 1))
             notices_.pop_front();
+    }
+
+    void take(protocol::event event, clock::time_point)
+    {
+        ++stats_.events;
+        stats_.events_missed += event.missed.value_or(0);
+        events_.push_back(std::move(event));
+        while (events_.size() > std::max<std::size_t>(options_.kept_events, 1))
+            events_.pop_front();
     }
 
     void take(protocol::error error, clock::time_point)
@@ -586,6 +596,17 @@ public:
         return notice;
     }
 
+    std::optional<protocol::event> next_event(std::chrono::milliseconds timeout)
+    {
+        std::unique_lock lock(mutex_);
+        changed_.wait_for(lock, timeout, [&] { return !events_.empty() || closed_; });
+        if (events_.empty())
+            return std::nullopt;
+        protocol::event event = std::move(events_.front());
+        events_.pop_front();
+        return event;
+    }
+
     std::optional<reply> next_unmatched_reply(std::chrono::milliseconds timeout)
     {
         std::unique_lock lock(mutex_);
@@ -735,6 +756,7 @@ private:
     std::deque<reply> unmatched_;
     std::map<std::uint64_t, protocol::player> players_;  ///< the room's, by id
     std::deque<protocol::player_notice> notices_;        ///< not yet taken
+    std::deque<protocol::event> events_;                 ///< sensor events not yet taken
     std::deque<std::shared_ptr<protocol::snapshot const>> snapshots_;
     /// The compact state of the last compact snapshot applied (I/O thread only).
     std::optional<protocol::compact_state> compact_held_;
@@ -865,6 +887,11 @@ std::vector<protocol::player> connection::players() const
 std::optional<protocol::player_notice> connection::next_player_notice(std::chrono::milliseconds timeout)
 {
     return state_->live->next_player_notice(timeout);
+}
+
+std::optional<protocol::event> connection::next_event(std::chrono::milliseconds timeout)
+{
+    return state_->live->next_event(timeout);
 }
 
 std::optional<reply> connection::next_unmatched_reply(std::chrono::milliseconds timeout)

@@ -59,6 +59,11 @@ struct connection_options
     /// resumed() says whether it took; when it did not, resume_refusal() says why and the
     /// connection goes on as the fresh player its first welcome named.
     std::optional<std::string> resume_token;
+    /// The sensor events to ask for in the hello (PROTOCOL.md, hello.events); nullopt asks
+    /// for none. They are read with next_event.
+    std::optional<protocol::event_request> events;
+    /// Sensor events received and not yet taken; a full queue drops its oldest.
+    std::size_t kept_events = 4096;
     /// How long connecting (resolve, TCP, upgrade) and the welcome may take.
     std::chrono::milliseconds connect_timeout{10'000};
     /// Snapshots received and not yet taken; a full queue drops its oldest.
@@ -125,6 +130,8 @@ struct connection_stats
     std::uint64_t commands_sent = 0;
     std::uint64_t acks = 0;
     std::uint64_t pongs = 0;
+    std::uint64_t events = 0;        ///< sensor events received
+    std::uint64_t events_missed = 0; ///< events the server dropped for this connection (their `missed`)
     std::map<std::string, std::uint64_t> errors; ///< by wire code: "unknown_body": 2
     latency_histogram ack_latency;               ///< send to ack, per acked command
     latency_histogram pong_latency;              ///< send to pong
@@ -211,6 +218,10 @@ public:
     /// The oldest player notice (another player joined, renamed or left; this one renamed)
     /// not yet taken, waiting up to `timeout` for one.
     std::optional<protocol::player_notice> next_player_notice(std::chrono::milliseconds timeout);
+
+    /// The oldest sensor event (an `event` message: the hello asked for them) not yet taken,
+    /// waiting up to `timeout` for one.
+    std::optional<protocol::event> next_event(std::chrono::milliseconds timeout);
 
     /// The oldest snapshot not yet taken, waiting up to `timeout`; null when none came.
     std::shared_ptr<protocol::snapshot const> next_snapshot(std::chrono::milliseconds timeout);

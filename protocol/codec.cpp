@@ -231,12 +231,50 @@ void resume_token_text(std::string const& token, location const& at)
                                            std::to_string(token.size()));
 }
 
+/// A sensor's name, as a scene gives it.
+void sensor_name(std::string const& name, location const& at) { shown_text(name, max_sensor_name_bytes, at); }
+
+/// One list of an event subscription: 1 to max_event_filter_entries entries, each checked.
+template <void (*Check)(std::string const&, location const&)>
+void filter_list(std::vector<std::string> const& list, location const& at)
+{
+    if (list.empty())
+        at.fail(error_code::bad_value, "must hold at least one entry (leave the list out to match every event)");
+    if (list.size() > max_event_filter_entries)
+        at.fail(error_code::bad_value, "must hold at most " + std::to_string(max_event_filter_entries) +
+                                           " entries, got " + std::to_string(list.size()));
+    for (std::size_t i = 0; i < list.size(); ++i)
+        Check(list[i], at / i);
+}
+
+void event_kind(std::string const& kind, location const& at)
+{
+    if (kind != "entered" && kind != "left")
+        at.fail(error_code::bad_value, "must be \"entered\" or \"left\", got " + dump(json(shortened(kind))));
+}
+
+constexpr auto fields(std::type_identity<event_filter>)
+{
+    return std::tuple{member("sensors", &event_filter::sensors, filter_list<sensor_name>),
+                      member("tags", &event_filter::tags, filter_list<body_tag>),
+                      member("kinds", &event_filter::kinds, filter_list<event_kind>)};
+}
+
+constexpr auto fields(std::type_identity<event>)
+{
+    return std::tuple{member("tick", &event::tick), member("time", &event::time),
+                      member("kind", &event::kind, event_kind), member("sensor", &event::sensor, sensor_name),
+                      member("body", &event::body), member("tag", &event::tag, body_tag),
+                      member("missed", &event::missed)};
+}
+
 constexpr auto fields(std::type_identity<hello>)
 {
     return std::tuple{member("protocol", &hello::protocol, spoken_protocol),
                       member("name", &hello::name, player_name), member("admin_token", &hello::admin_token),
                       member("snapshots", &hello::snapshots), member("players", &hello::players),
-                      member("resume", &hello::resume, resume_token_text)};
+                      member("resume", &hello::resume, resume_token_text),
+                      member("events", &hello::events)};
 }
 
 constexpr auto fields(std::type_identity<body_spec>)
@@ -330,7 +368,8 @@ constexpr auto fields(std::type_identity<session_limits>)
     return std::tuple{member("max_message_bytes", &session_limits::max_message_bytes),
                       member("max_bodies", &session_limits::max_bodies),
                       member("commands_per_second", &session_limits::commands_per_second),
-                      member("max_bodies_per_client", &session_limits::max_bodies_per_client)};
+                      member("max_bodies_per_client", &session_limits::max_bodies_per_client),
+                      only_when_set("max_queued_events", &session_limits::max_queued_events)};
 }
 
 constexpr auto fields(std::type_identity<room_permissions>)
@@ -769,6 +808,7 @@ void read_value(json const& value, location const& at, error_code& out)
     out = *code;
 }
 
+void read_value(json const& value, location const& at, event_request& out);
 template <class E, std::size_t N>
 void read_value(json const& value, location const& at, std::array<E, N>& out);
 template <class E> void read_value(json const& value, location const& at, std::vector<E>& out);
@@ -830,6 +870,20 @@ void read_value(json const& value, location const& at, T& out)
     std::apply([&](auto const&... f) { (read_field(value, at, out, f), ...); },
                fields(std::type_identity<T>{}));
     check_together(out, at);
+}
+
+/// hello.events: true, false or an event_filter object.
+void read_value(json const& value, location const& at, event_request& out)
+{
+    if (value.is_boolean()) {
+        out = {value.get<bool>(), {}};
+        return;
+    }
+    if (!value.is_object())
+        at.fail(error_code::wrong_type, "must be true, false or an object {sensors, tags, kinds}, got " +
+                                            describe(value));
+    out.on = true;
+    read_value(value, at, out.filter);
 }
 
 /// The message named by `type`, one of the Variant's alternatives.
@@ -1114,6 +1168,7 @@ json to_value(error_code code)
     return name(code);
 }
 
+json to_value(event_request const& request);
 template <class E, std::size_t N> json to_value(std::array<E, N> const& items);
 template <class E> json to_value(std::vector<E> const& items);
 template <class T>
@@ -1160,6 +1215,15 @@ requires has_fields<T> json to_value(T const& value)
     json out = json::object();
     write_fields(out, value);
     return out;
+}
+
+json to_value(event_request const& request)
+{
+    if (!request.on)
+        return false;
+    if (request.filter == event_filter{})
+        return true;
+    return to_value(request.filter);
 }
 
 template <class T> std::string encode_message(T const& message)
@@ -1239,6 +1303,10 @@ std::string encode(roster const& message)
     return encode_message(message);
 }
 std::string encode(player_notice const& message)
+{
+    return encode_message(message);
+}
+std::string encode(event const& message)
 {
     return encode_message(message);
 }

@@ -46,6 +46,7 @@ std::string encode(pong const& message);
 std::string encode(compact_snapshot const& message);
 std::string encode(roster const& message);
 std::string encode(player_notice const& message);
+std::string encode(event const& message);
 /// encode(keyframe(state)), without copying the state's bodies into a message first.
 std::string encode_keyframe(compact_state const& state);
 std::string encode(server_message const& message);

@@ -48,6 +48,33 @@ struct snapshot_request
     bool operator==(snapshot_request const&) const = default;
 };
 
+/// The longest sensor name, in bytes of UTF-8 (a scene's sensors[].name).
+inline constexpr std::size_t max_sensor_name_bytes = 32;
+/// The most entries one list of an event subscription may hold.
+inline constexpr std::size_t max_event_filter_entries = 64;
+
+/// Which sensor events a connection wants (hello.events as an object): an event is sent
+/// when it matches every list given; a list left out matches every event. A list given
+/// holds 1 to max_event_filter_entries entries.
+struct event_filter
+{
+    std::optional<std::vector<std::string>> sensors; ///< sensor names of the room's scene
+    std::optional<std::vector<std::string>> tags;    ///< body tags; an untagged body matches none
+    std::optional<std::vector<std::string>> kinds;   ///< "entered", "left"
+
+    bool operator==(event_filter const&) const = default;
+};
+
+/// hello.events: `true` (every event), `false` (none, the start of every connection) or an
+/// event_filter object (the events it matches). Each replaces the one before.
+struct event_request
+{
+    bool on = true;      ///< false: no events
+    event_filter filter; ///< when on; all lists absent: every event
+
+    bool operator==(event_request const&) const = default;
+};
+
 /// The longest player name, in bytes of UTF-8.
 inline constexpr std::size_t max_player_name_bytes = 64;
 /// The longest hello.resume read, in bytes: a server's tokens are far shorter (kugel-server's
@@ -72,6 +99,9 @@ struct hello
     /// A welcome's resume_token: this connection becomes that player again (its id, name and
     /// bodies), answered by a new welcome; 1 to max_resume_token_bytes bytes. Never logged.
     std::optional<std::string> resume;
+    /// The sensor events this connection is sent (`event` messages); absent keeps what it
+    /// was (a connection starts with none). Answered by nothing, or a bad_value error.
+    std::optional<event_request> events;
 
     bool operator==(hello const&) const = default;
 };
@@ -260,6 +290,8 @@ struct session_limits
     /// Bodies this connection spawned that may exist at once (more: too_many_bodies);
     /// absent when no such cap applies to it (none is set, or the client is an admin).
     std::optional<std::uint64_t> max_bodies_per_client;
+    /// Events a connection may have unsent; more are dropped and counted (event.missed).
+    std::uint64_t max_queued_events = 0;
 
     bool operator==(session_limits const&) const = default;
 };
@@ -468,6 +500,25 @@ struct player_notice
     bool operator==(player_notice const&) const = default;
 };
 
-using server_message = std::variant<welcome, ack, error, snapshot, pong, compact_snapshot, roster, player_notice>;
+/// A body's centre entered or left one of the scene's sensors during a tick's step: sent to
+/// the connections whose hello.events it matches, ahead of that tick's snapshot.
+struct event
+{
+    static constexpr std::string_view type = "event";
+    std::uint64_t tick = 0;  ///< the tick whose step it happened in (its snapshot's tick)
+    double time = 0.0;       ///< s: the world time of the crossing, inside that step
+    std::string kind;        ///< "entered" or "left"
+    std::string sensor;      ///< the sensor's name
+    std::uint64_t body = 0;  ///< the body's id, as in snapshots
+    std::optional<std::string> tag;      ///< the body's tag, when it has one
+    /// Events this connection was not sent since the last one it was (its queue of unsent
+    /// events was full); absent when none.
+    std::optional<std::uint64_t> missed;
+
+    bool operator==(event const&) const = default;
+};
+
+using server_message =
+    std::variant<welcome, ack, error, snapshot, pong, compact_snapshot, roster, player_notice, event>;
 
 } // namespace kugel::protocol

@@ -421,6 +421,28 @@ std::vector<bad_case> bad_client_messages()
             R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "velocity": [1.7e308, 1.7e308, 0], "radius": 1, "mass": 1}})",
             error_code::bad_value, "/body/velocity: a speed beyond the range of a double is not below", 1, false},
         // A body's tag is shown to every client: bounded, no control characters.
+        bad_case{"events_a_string", R"({"type": "hello", "events": "all"})", error_code::wrong_type,
+                 "/events: must be true, false or an object {sensors, tags, kinds}, got string", std::nullopt},
+        bad_case{"events_sensors_not_a_list", R"({"type": "hello", "events": {"sensors": "goal"}})",
+                 error_code::wrong_type, "/events/sensors: must be an array", std::nullopt},
+        bad_case{"events_sensors_empty", R"({"type": "hello", "events": {"sensors": []}})", error_code::bad_value,
+                 "/events/sensors: must hold at least one entry (leave the list out to match every event)",
+                 std::nullopt},
+        bad_case{"events_sensor_name_too_long", R"({"type": "hello", "events": {"sensors": ["goal", ")" +
+                                                    std::string(33, 's') + R"("]}})",
+                 error_code::bad_value, "/events/sensors/1: must be 1 to 32 bytes of UTF-8, got 33", std::nullopt},
+        bad_case{"events_tag_with_a_tab", R"({"type": "hello", "events": {"tags": ["a\tb"]}})", error_code::bad_value,
+                 "/events/tags/0: must not hold control characters (found the byte 9)", std::nullopt},
+        bad_case{"events_unknown_kind", R"({"type": "hello", "events": {"kinds": ["entered", "stayed"]}})",
+                 error_code::bad_value, "/events/kinds/1: must be \"entered\" or \"left\", got \"stayed\"",
+                 std::nullopt},
+        bad_case{"events_too_many_tags", R"({"type": "hello", "events": {"tags": [)" + [] {
+                     std::string list;
+                     for (int i = 0; i < 65; ++i)
+                         list += (i == 0 ? "\"t" : ", \"t") + std::to_string(i) + "\"";
+                     return list;
+                 }() + R"(]}})",
+                 error_code::bad_value, "/events/tags: must hold at most 64 entries, got 65", std::nullopt},
         bad_case{"tag_empty", R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "radius": 1, "mass": 1, "tag": ""}})",
                  error_code::bad_value, "/body/tag: must be 1 to 32 bytes of UTF-8, got 0", 1},
         bad_case{"tag_too_long", R"({"type": "spawn", "ref": 1, "body": {"position": [0, 0, 0], "radius": 1, "mass": 1, "tag": ")" +
@@ -552,7 +574,7 @@ TEST(DecodeServerMessage, RefusesWhatAClientCouldMisread)
               R"(bad_value /code: unknown error code string "teapot")");
     EXPECT_EQ(
         code_of(R"({"type": "ping", "ref": 1})"),
-        R"(unknown_type /type: unknown message type "ping" (known: welcome, ack, error, snapshot, pong, players, player))");
+        R"(unknown_type /type: unknown message type "ping" (known: welcome, ack, error, snapshot, pong, players, player, event))");
     EXPECT_EQ(code_of(R"({"type": "player", "change": "kicked", "id": 3})"),
               R"(bad_value /change: must be "joined", "renamed", "away", "back" or "left", got "kicked")");
     EXPECT_EQ(code_of(R"({"type": "players", "players": [{"id": 1, "name": ""}]})"),
