@@ -262,6 +262,12 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     per_room({"kugel_player_notices_merged_total", "counter",
               "Times a client's unsent player notices were replaced by one roster of the room's players."},
              [&](room const& r) { return load(r.traffic().player_messages_merged); });
+    per_room({"kugel_events_sent_total", "counter",
+              "Sensor events (event messages) handed to a room's client sockets."},
+             [&](room const& r) { return load(r.traffic().events_out); });
+    per_room({"kugel_events_dropped_total", "counter",
+              "Sensor events not sent because the client had as many unsent as it may (the next one it is sent says how many it missed)."},
+             [&](room const& r) { return load(r.traffic().events_dropped); });
     m.begin({"kugel_commands_rejected_total", "counter",
              "Messages refused with an error, by error code (protocol/PROTOCOL.md)."});
     for (auto const& r : rooms)

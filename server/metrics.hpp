@@ -95,6 +95,9 @@ struct traffic_counters
     std::atomic<std::uint64_t> stalled_clients{0};   ///< disconnected: a send pending past write_stall
     /// unsent player notices replaced by one roster (a crowd joined faster than a client read)
     std::atomic<std::uint64_t> player_messages_merged{0};
+    std::atomic<std::uint64_t> events_out{0};     ///< sensor events handed to a socket
+    /// sensor events dropped because a client had max_queued_events unsent
+    std::atomic<std::uint64_t> events_dropped{0};
     snapshot_form_counters sent;    ///< snapshots handed to a socket, by form
     snapshot_form_counters encoded; ///< snapshots encoded (once for all sessions), by form
     std::array<std::atomic<std::uint64_t>, protocol::all_error_codes.size()> rejected{};

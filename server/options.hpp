@@ -27,6 +27,9 @@ struct client_limits
     double commands_per_second = 200.0;         ///< sustained; larger: error rate_limited
     double command_burst = 200.0;               ///< commands allowed at once after a pause
     std::size_t max_queued_replies = 256;       ///< acks and errors not yet sent; more: close 1008
+    /// Sensor events not yet sent; more are dropped and counted (the next one sent says how
+    /// many in `missed`). Never a reason to close.
+    std::size_t max_queued_events = 256;
     /// Bodies one connection spawned that may exist at once; a spawn beyond it: error
     /// too_many_bodies. 0: no cap. Admins are exempt.
     std::size_t max_bodies_per_client = 1000;

@@ -50,6 +50,7 @@ protocol::welcome make_welcome(std::string const& room_name, scene::scene const&
     welcome.scene.bounds = {to_wire(bounds.centre), bounds.radius};
     welcome.limits = {config.client.max_message_bytes, config.max_bodies,
                       static_cast<std::uint64_t>(config.client.commands_per_second)};
+    welcome.limits.max_queued_events = config.client.max_queued_events;
     welcome.permissions = {std::string(scene::name(s.permissions.push)),
                            std::string(scene::name(s.permissions.remove))};
     return welcome;
@@ -555,6 +556,88 @@ void room::request_snapshots(std::shared_ptr<websocket_session> session,
     });
 }
 
+void room::subscribe_events(std::shared_ptr<websocket_session> session, protocol::event_request request)
+{
+    net::post(strand_, [self = shared_from_this(), session = std::move(session), request = std::move(request)] {
+        if (request.on && request.filter.sensors) {
+            auto const& known = self->scene_.sensors;
+            auto const& asked = *request.filter.sensors;
+            for (std::size_t i = 0; i < asked.size(); ++i) {
+                bool const found = std::any_of(known.begin(), known.end(), [&](scene::sensor_settings const& s) {
+                    return s.name == asked[i];
+                });
+                if (found)
+                    continue;
+                std::vector<std::string> names;
+                for (auto const& s : known)
+                    names.push_back("\"" + s.name + "\"");
+                std::string const message = fmt::format(
+                    "/events/sensors/{}: the room's scene has no sensor \"{}\" ({})", i, asked[i],
+                    names.empty() ? std::string("it has no sensors")
+                                  : fmt::format("its sensors: {}", fmt::join(names, ", ")));
+                self->traffic_.count_rejected(error_code::bad_value);
+                spdlog::info("client {}: refused an event subscription: {}", session->client_id(), message);
+                session->send_notice(share(protocol::encode(protocol::error{std::nullopt, error_code::bad_value, message})));
+                return;
+            }
+        }
+        for (member& m : self->sessions_)
+            if (m.connection == session->connection_id())
+                m.events = request.on ? std::optional(request.filter) : std::nullopt;
+    });
+}
+
+bool room::wants(protocol::event_filter const& filter, protocol::event const& e)
+{
+    auto const in = [](std::optional<std::vector<std::string>> const& list, std::string const& value) {
+        return !list || std::find(list->begin(), list->end(), value) != list->end();
+    };
+    if (!in(filter.sensors, e.sensor) || !in(filter.kinds, e.kind))
+        return false;
+    return !filter.tags || (e.tag && in(filter.tags, *e.tag));
+}
+
+void room::send_events()
+{
+    auto const crossings = world_.sensor_events();
+    if (crossings.empty())
+        return; // a scene without sensors, or a quiet step: nothing more
+    bool const heard = std::any_of(sessions_.begin(), sessions_.end(),
+                                   [](member const& m) { return m.events.has_value(); });
+    if (!heard)
+        return; // nobody subscribes: no event is built
+    // Each event is built and encoded once, then handed to every member it matches.
+    std::vector<queued_event> events;
+    events.reserve(crossings.size());
+    for (physics::sensor_event const& c : crossings) {
+        if (c.sensor >= scene_.sensors.size() || c.body.index >= wire_id_of_index_.size())
+            continue; // cannot happen: the world's sensors are the scene's, its bodies the room's
+        protocol::event e;
+        e.tick = counters_.ticks;
+        e.time = c.time;
+        e.kind = c.entered ? "entered" : "left";
+        e.sensor = scene_.sensors[c.sensor].name;
+        e.body = wire_id_of_index_[c.body.index];
+        if (auto const tag = tag_of_wire_id_.find(e.body); tag != tag_of_wire_id_.end())
+            e.tag = tag->second;
+        auto bytes = share(protocol::encode(e));
+        events.push_back({std::make_shared<protocol::event const>(std::move(e)), std::move(bytes)});
+    }
+    for (member const& m : sessions_) {
+        if (!m.events)
+            continue;
+        auto session = m.session.lock();
+        if (!session)
+            continue; // it ended: its leave() is on its way
+        std::vector<queued_event> matching;
+        for (queued_event const& e : events)
+            if (wants(*m.events, *e.message))
+                matching.push_back(e);
+        if (!matching.empty())
+            session->send_events(std::move(matching));
+    }
+}
+
 std::shared_ptr<std::string const> room::welcome_for(member const& m) const
 {
     protocol::welcome welcome = welcome_;
@@ -602,8 +685,9 @@ void room::on_tick(beast::error_code ec)
     apply_commands(std::exchange(pending_commands_, {})); // 1. in arrival order
     end_graces();                                          //    then players that left
     auto const applied = clock::now();
-    step_world();                                          // 2. physics
-    auto const stepped = clock::now();
+    if (step_world())                                      // 2. physics
+        send_events();                                     //    its sensor events, ahead of
+    auto const stepped = clock::now();                     //    the snapshot
     if (snapshot_due())
         send_snapshot();                   // 3. copied here, encoded once off the tick
     record({applied - started, stepped - applied, clock::now() - stepped, // 4. cost
@@ -976,11 +1060,11 @@ std::uint64_t room::add_body(physics::body_desc const& desc)
     return wire_id;
 }
 
-void room::step_world()
+bool room::step_world()
 {
     if (paused_) { // the tick goes on, the world stands still
         ++counters_.ticks;
-        return;
+        return false;
     }
     // A step that fails changes nothing (world::step); the newer of the two bodies it names
     // (or the one an adaptive integrator could not follow) is removed and the step is taken
@@ -988,9 +1072,11 @@ void room::step_world()
     // loses that body. Either way the world that goes on is finite, and every snapshot,
     // /healthz and /metrics count the fault.
     constexpr int max_attempts = 4;
+    bool stepped = false;
     for (int attempt = 1; attempt <= max_attempts; ++attempt) {
         try {
             world_.step(dt_);
+            stepped = true;
             break;
         } catch (physics::singular_force_error const& e) {
             // Of the two, the body that came last goes: a client's body that runs into the
@@ -1009,6 +1095,7 @@ void room::step_world()
         remove_after_fault(broken, "the step left their position or velocity beyond the range of a double");
     count_phase_times();
     ++counters_.ticks;
+    return stepped;
 }
 
 void room::count_phase_times()

@@ -146,6 +146,10 @@ public:
     /// gets them, and it is sent a welcome saying what it gets (welcome.snapshots).
     void request_snapshots(std::shared_ptr<websocket_session> session,
                            protocol::snapshot_request request);
+    /// The session's hello asked for sensor events: from the next tick on it is sent those
+    /// that match. A sensor name the room's scene does not have is answered bad_value, and the
+    /// session keeps what it had.
+    void subscribe_events(std::shared_ptr<websocket_session> session, protocol::event_request request);
 
     /// The room's state now. Call it on the room's strand, or while nothing runs the room
     /// (before start, after the server's threads ended).
@@ -193,7 +197,10 @@ private:
     protocol::roster current_roster() const;
     /// What `m` is told in its welcome: the room's, with its id, admin flag and caps.
     std::shared_ptr<std::string const> welcome_for(member const& m) const;
-    void step_world();
+    /// Steps the world (unless paused): true when a step was taken.
+    bool step_world();
+    /// The last step's sensor events, to the members whose subscriptions they match.
+    void send_events();
     /// Adds what the last step spent in each phase to counters_.phase_nanoseconds, and the
     /// bodies it swept (or did not) to counters_.
     void count_phase_times();
@@ -308,7 +315,11 @@ private:
         std::uint64_t connection = 0; ///< the session's connection_id(), which never changes
         std::string resume_token;     ///< the player's secret for a resume; never logged
         bool resumed = false;         ///< a resume made it the player it is (once a connection)
+        /// Its hello.events: nothing, no events (the start); else the events it matches.
+        std::optional<protocol::event_filter> events;
     };
+    /// Whether an event matches a member's subscription.
+    static bool wants(protocol::event_filter const& filter, protocol::event const& e);
     /// A player whose connection ended, kept for a resume until its grace ends.
     struct away_player
     {

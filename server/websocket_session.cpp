@@ -214,6 +214,13 @@ void websocket_session::handle_message(std::string_view text)
             room_->hear_players(shared_from_this(), *hello->players);
         if (hello->admin_token)
             handle_admin_token(*hello->admin_token);
+        if (hello->events) {
+            // Checked against the room's sensors and answered only when refused; counted as a
+            // command, as a hello with snapshots is.
+            if (!take_command_token())
+                return refuse_rate_limited(std::nullopt);
+            room_->subscribe_events(shared_from_this(), *hello->events);
+        }
         if (hello->snapshots) {
             // Answered by a welcome, so counted as a command: a flood of them is slowed.
             if (!take_command_token())
@@ -367,6 +374,28 @@ void websocket_session::drop_queued_player_messages()
     queued_player_messages_.clear();
 }
 
+void websocket_session::send_events(std::vector<queued_event> events)
+{
+    net::post(ws_.get_executor(), [self = shared_from_this(), events = std::move(events)]() mutable {
+        if (self->closing_)
+            return;
+        for (queued_event& e : events) {
+            if (self->events_.size() >= self->limits_.max_queued_events) {
+                ++self->events_missed_;
+                bump(self->room_->traffic().events_dropped);
+                continue;
+            }
+            if (self->events_missed_ > 0) {
+                protocol::event told = *e.message;
+                told.missed = std::exchange(self->events_missed_, 0);
+                e.bytes = std::make_shared<std::string const>(protocol::encode(told));
+            }
+            self->events_.push_back(std::move(e.bytes));
+        }
+        self->write_next();
+    });
+}
+
 void websocket_session::send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot)
 {
     net::post(ws_.get_executor(), [self = shared_from_this(), snapshot = std::move(snapshot)]() mutable {
@@ -456,6 +485,10 @@ void websocket_session::write_next()
         replies_.pop_front();
         std::erase(queued_player_messages_, in_flight_.get());
         bump(traffic.replies_out);
+    } else if (!events_.empty()) {
+        in_flight_ = std::move(events_.front());
+        events_.pop_front();
+        bump(traffic.events_out);
     } else if (!pending_snapshots_.empty()) {
         auto [bytes, form] = bytes_of(*pending_snapshots_.front());
         in_flight_ = std::move(bytes);
@@ -491,6 +524,7 @@ void websocket_session::close_with(websocket::close_code code, std::string_view 
         return;
     closing_ = true;
     replies_.clear();
+    events_.clear();
     pending_snapshots_.clear();
     held_while_paused_.reset(); // the caller holds the session
     if (!accepted_)
@@ -509,6 +543,7 @@ void websocket_session::drop_connection(char const* why)
     spdlog::warn("client {} ({}): {}; disconnected", client_id_, peer_, why);
     closing_ = true;
     replies_.clear();
+    events_.clear();
     pending_snapshots_.clear();
     held_while_paused_.reset(); // the caller holds the session
     beast::error_code ignored;

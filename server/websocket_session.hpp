@@ -4,6 +4,8 @@
 #include "network.hpp"
 #include "options.hpp"
 
+#include "protocol/messages.hpp"
+
 
 #include <atomic>
 #include <chrono>
@@ -19,6 +21,14 @@ namespace kugel::server {
 
 class room;
 class encoded_snapshot;
+
+/// A sensor event for a session: the message (to re-encode with `missed`) and its bytes,
+/// encoded once for every session it goes to.
+struct queued_event
+{
+    std::shared_ptr<protocol::event const> message;
+    std::shared_ptr<std::string const> bytes;
+};
 
 /// One WebSocket client of a room. Reads commands and hands them to the room; writes what
 /// the room sends back. The outgoing side is bounded, so that nothing a client does or fails
@@ -54,6 +64,11 @@ public:
     /// unsent (a crowd joining at once), they are dropped and the room is asked for the roster
     /// instead, so a crowd cannot fill the reply queue of a client that reads.
     void send_player_notice(std::shared_ptr<std::string const> notice);
+    /// Queues a tick's sensor events for this client (they match its hello.events), after the
+    /// replies and before any snapshot. At most client_limits::max_queued_events wait unsent;
+    /// those beyond are dropped and counted, and the next one queued says how many in
+    /// `missed`. Never closes the connection.
+    void send_events(std::vector<queued_event> events);
     /// Offers a snapshot; replaces any snapshot not yet sent. Which of its forms is sent is
     /// chosen when it is written (encoded_snapshot).
     void send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
@@ -120,6 +135,10 @@ private:
     /// replaced by one roster), and whether the room was asked for that roster.
     std::vector<std::string const*> queued_player_messages_;
     bool roster_asked_ = false;
+    /// Sensor events not yet sent (after replies, before snapshots), and how many were
+    /// dropped since the last one queued.
+    std::deque<std::shared_ptr<std::string const>> events_;
+    std::uint64_t events_missed_ = 0;
     /// Snapshots not yet sent: the newest alone, or, on the compact form, a short run of
     /// deltas each against the one before (a client a little behind gets them rather than a
     /// keyframe many times their size, which would put it further behind).

@@ -274,6 +274,29 @@ std::vector<hostile_case> catalogue()
          refused("wrong_type", "/snapshots/rate")},
         {"snapshots rate 1e999", R"({"type":"hello","snapshots":{"rate":1e999}})", refused("not_finite", "/snapshots/rate")},
 
+        // hello.events: sensor events a client asks for (the lab's one sensor is "gate").
+        {"events of the lab's sensor", R"({"type":"hello","events":{"sensors":["gate"],"kinds":["left"]}})", no_answer{}},
+        {"events, all of them", R"({"type":"hello","events":true})", no_answer{}},
+        {"events off", R"({"type":"hello","events":false})", no_answer{}},
+        {"events of an unknown sensor", R"({"type":"hello","events":{"sensors":["gate","goal"]}})",
+         refused("bad_value", "/events/sensors/1")},
+        {"events as a string", R"({"type":"hello","events":"all"})", refused("wrong_type", "/events")},
+        {"events null", R"({"type":"hello","events":null})", refused("wrong_type", "/events")},
+        {"events sensors as a string", R"({"type":"hello","events":{"sensors":"gate"}})",
+         refused("wrong_type", "/events/sensors")},
+        {"events with an empty tag list", R"({"type":"hello","events":{"tags":[]}})", refused("bad_value", "/events/tags")},
+        {"events of an unknown kind", R"({"type":"hello","events":{"kinds":["stayed"]}})",
+         refused("bad_value", "/events/kinds/0")},
+        {"events sensor name with a newline", R"({"type":"hello","events":{"sensors":["ga\nte"]}})",
+         refused("bad_value", "/events/sensors/0")},
+        {"events with 65 sensors", R"({"type":"hello","events":{"sensors":)" + [] {
+             std::string list = "[\"gate\"";
+             for (int i = 1; i < 65; ++i)
+                 list += ",\"gate\"";
+             return list + "]";
+         }() + "}}",
+         refused("bad_value", "/events/sensors")},
+
         // Ids and refs that are not whole numbers below 2^53, and bodies that do not exist.
         {"id as a string", R"({"type":"impulse","ref":80,"id":"1","impulse":[0,0,1]})", refused("wrong_type", "/id", 80)},
         {"fractional id", R"({"type":"remove","ref":81,"id":1.5})", refused("bad_value", "/id", 81)},
@@ -448,6 +471,7 @@ json lab_scene()
             {"integrator", "semi_implicit_euler"},
             {"collisions", {{"mode", "off"}}},
             {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+            {"sensors", json::array({{{"name", "gate"}, {"box", {{"min", {5, -1, -1}}, {"max", {6, 1, 1}}}}}})},
             {"bodies", json::array({{{"position", {0, 0, 0}}, {"radius", 0.5}, {"mass", 2.0}},
                                     {{"position", {3, 0, 0}}, {"radius", 0.0}, {"mass", 1e-9}}})}};
 }
