@@ -189,7 +189,7 @@ step step_at(json const& value, std::size_t number)
     static std::set<std::string> const actions{"send",          "send_text",       "expect",
                                                "wait_ticks",    "wait_until_tick", "expect_body",
                                                "wait_for_body", "close",           "expect_close",
-                                               "expect_player"};
+                                               "expect_player", "expect_event"};
     std::vector<std::string> found;
     for (auto const& [key, item] : object.items())
         if (actions.contains(key))
@@ -277,6 +277,30 @@ step step_at(json const& value, std::size_t number)
             if (!wanted["name"].is_string() && !wanted["name"].is_null())
                 (inner / "name").fail("must be a string, or null for a player without a name");
             e.fields["name"] = wanted["name"];
+        }
+        if (wanted.contains("keep"))
+            e.keep = keep_at(wanted["keep"], inner / "keep");
+        s.action = std::move(e);
+    } else if (s.kind == "expect_event") {
+        expect_event_step e;
+        json const& wanted = object_at(body, inner);
+        only_keys(wanted, {"kind", "sensor", "body", "tag", "tick", "keep"}, inner);
+        if (wanted.contains("kind")) {
+            json const& kind = wanted["kind"];
+            if (!is_substituted(kind) && kind != "entered" && kind != "left")
+                (inner / "kind").fail("must be \"entered\" or \"left\", got " + describe(kind));
+            e.fields["kind"] = kind;
+        }
+        if (wanted.contains("sensor"))
+            e.fields["sensor"] = string_at(wanted["sensor"], inner / "sensor");
+        if (wanted.contains("body"))
+            e.fields["body"] = number_or_substituted(wanted["body"], inner / "body");
+        if (wanted.contains("tick"))
+            e.fields["tick"] = number_or_substituted(wanted["tick"], inner / "tick");
+        if (wanted.contains("tag")) {
+            if (!wanted["tag"].is_string() && !wanted["tag"].is_null())
+                (inner / "tag").fail("must be a string, or null for a body without a tag");
+            e.fields["tag"] = wanted["tag"];
         }
         if (wanted.contains("keep"))
             e.keep = keep_at(wanted["keep"], inner / "keep");

@@ -115,9 +115,20 @@ struct expect_player_step
     keep_map keep; ///< from "id", "name", "change"
 };
 
+/// Wait for the client's next sensor event (its hello asked for events) not yet taken, and
+/// check it.
+struct expect_event_step
+{
+    /// "kind", "sensor", "body", "tag", "tick" -> the value wanted (variables allowed); a
+    /// null tag: a body without one
+    nlohmann::json fields = nlohmann::json::object();
+    keep_map keep; ///< from "body", "tick", "time", "sensor", "kind", "tag"
+};
+
 using step_action =
     std::variant<send_step, send_text_step, expect_step, wait_ticks_step, wait_until_tick_step,
-                 expect_body_step, wait_for_body_step, close_step, expect_close_step, expect_player_step>;
+                 expect_body_step, wait_for_body_step, close_step, expect_close_step, expect_player_step,
+                 expect_event_step>;
 
 struct step
 {

@@ -476,6 +476,24 @@ private:
         return describe_json(got);
     }
 
+    std::string perform(expect_event_step const& e, client_state& c)
+    {
+        json const wanted = vars_.resolve(e.fields);
+        std::string const expected = "a sensor event" + (wanted.empty() ? std::string() : " with " + describe_json(wanted));
+        auto const event = c.link->next_event(options_.timeout);
+        if (!event)
+            throw step_failed{expected, "none within " + std::to_string(options_.timeout.count()) + " ms"};
+        json got = json::parse(protocol::encode(*event));
+        got.erase("type");
+        for (auto const& [field, value] : wanted.items()) {
+            json const& have = got.contains(field) ? got[field] : json();
+            if (!same(have, value))
+                throw step_failed{expected, describe_json(got)};
+        }
+        keep(e.keep, got);
+        return describe_json(got);
+    }
+
     void close_all()
     {
         for (auto& [name, c] : clients_)

@@ -35,7 +35,9 @@ public:
 private:
     static server::server_options with_examples(server::server_options o)
     {
-        o.rooms = {{"still", example_scene("still")}, {"fall", example_scene("fall")}};
+        o.rooms = {{"still", example_scene("still")},
+                   {"fall", example_scene("fall")},
+                   {"goal", fs::path(KUGEL_SOURCE_DIR) / "scenes" / "goal.json"}};
         return o;
     }
 };
@@ -59,6 +61,41 @@ TEST(Connection, ConnectsAndHasTheWelcome)
     EXPECT_EQ(c.welcome().protocol, protocol::protocol_version);
     EXPECT_TRUE(c.is_open());
     EXPECT_NE(c.next_snapshot(10s), nullptr);
+}
+
+// A connection opened asking for the goal's events hands out each with next_event, and one
+// that asked for none gets none; a ball rolled from the centre spot at 4 m/s enters the goal
+// (x = 8) 2 s after its spawn's step starts.
+TEST(Connection, AsksForSensorEventsAndHandsOutEach)
+{
+    running_server s;
+    connection_options fan_options;
+    fan_options.events = protocol::event_request{.filter = {.sensors = std::vector<std::string>{"goal"}}};
+    connection fan(s.url("goal"), fan_options);
+    connection quiet(s.url("goal"));
+    // The hello went first: once a ping of the fan's is answered, the room holds it.
+    ASSERT_TRUE(fan.await_reply(fan.send(protocol::ping{}), 10s));
+
+    protocol::spawn roll = ball_at({0.0, 0.0, 0.0}, 0.4);
+    roll.body.velocity = {4.0, 0.0, 0.0};
+    roll.body.tag = "ball";
+    auto const answer = quiet.await_reply(quiet.send(roll), 10s);
+    ASSERT_TRUE(answer);
+    auto const& ack = std::get<protocol::ack>(*answer);
+    double const start = static_cast<double>(ack.tick - 1) * 0.015625;
+
+    auto const entered = fan.next_event(10s);
+    ASSERT_TRUE(entered);
+    EXPECT_EQ(entered->kind, "entered");
+    EXPECT_EQ(entered->sensor, "goal");
+    EXPECT_EQ(entered->body, *ack.id);
+    EXPECT_EQ(entered->tag, "ball");
+    EXPECT_NEAR(entered->time, start + 2.0, 1e-9); // exact but for rounding (no force)
+    EXPECT_FALSE(entered->missed);
+    EXPECT_EQ(fan.stats().events, 1U);
+    EXPECT_FALSE(fan.next_event(100ms)); // each is handed out once; the next comes after a bounce
+    EXPECT_FALSE(quiet.next_event(100ms));
+    EXPECT_EQ(quiet.stats().events, 0U);
 }
 
 // The newest welcome holds (PROTOCOL.md): a hello that makes the connection an admin brings

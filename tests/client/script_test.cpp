@@ -64,6 +64,30 @@ TEST(Script, ReadsEveryKindOfStep)
     EXPECT_EQ(label_of(s.steps[0]), "step 1 \"drop\" (send, client main)");
 }
 
+TEST(Script, ExpectEventReadsItsFields)
+{
+    script const s = parse_script(R"({"steps": [
+        {"client": "fan", "expect_event": {"kind": "entered", "sensor": "goal", "body": "$ball", "tag": null,
+                                           "tick": 12, "keep": {"at": "time"}}},
+        {"expect_event": {}}]})");
+    ASSERT_EQ(s.steps.size(), 2U);
+    EXPECT_EQ(s.steps[0].kind, "expect_event");
+    auto const& e = std::get<expect_event_step>(s.steps[0].action);
+    EXPECT_EQ(e.fields, (nlohmann::json{{"kind", "entered"}, {"sensor", "goal"}, {"body", "$ball"}, {"tag", nullptr},
+                                        {"tick", 12}}));
+    EXPECT_EQ(e.keep.at("at"), "time");
+    EXPECT_TRUE(std::get<expect_event_step>(s.steps[1].action).fields.empty());
+    EXPECT_NE(refusal(one_step(R"({"expect_event": {"kind": "stayed"}})"))
+                  .find(R"(step 1 (expect_event): /expect_event/kind: must be "entered" or "left")"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_event": {"tag": 7}})")).find("/expect_event/tag: must be a string"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_event": {"sensor": 7}})")).find("/expect_event/sensor"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_event": {"what": 1}})")).find("unknown field \"what\""),
+              std::string::npos);
+}
+
 TEST(Script, RefusalsNameTheStepAndTheField)
 {
     EXPECT_EQ(refusal("{not json").find("not valid JSON"), 0U);
