@@ -234,10 +234,10 @@ TEST(Events, FiltersBySensorTagAndKind)
     std::uint64_t const done = spawned_puck.second + 64; // 1 s: past x = 4 at 5 m/s
 
     std::multiset<crossing> every;
-    for (auto const body : {ball, puck})
-        for (std::string const sensor : {"goal", "zone"})
-            for (std::string const kind : {"entered", "left"})
-                every.insert({kind, sensor, body});
+    for (std::uint64_t const body : {ball, puck})
+        for (char const* sensor : {"goal", "zone"})
+            for (char const* kind : {"entered", "left"})
+                every.insert({std::string(kind), std::string(sensor), body});
     auto const only = [&](auto keep) {
         std::multiset<crossing> out;
         for (crossing const& c : every)
