@@ -460,37 +460,34 @@ private:
 
     std::string perform(expect_player_step const& e, client_state& c)
     {
-        json const wanted = vars_.resolve(e.fields);
-        std::string const expected = "a player notice" + (wanted.empty() ? std::string() : " with " + describe_json(wanted));
-        auto const notice = c.link->next_player_notice(options_.timeout);
-        if (!notice)
-            throw step_failed{expected, "none within " + std::to_string(options_.timeout.count()) + " ms"};
-        json got = json::parse(protocol::encode(*notice));
-        got.erase("type");
-        for (auto const& [field, value] : wanted.items()) {
-            json const& have = got.contains(field) ? got[field] : json();
-            if (!same(have, value))
-                throw step_failed{expected, describe_json(got)};
-        }
-        keep(e.keep, got);
-        return describe_json(got);
+        return expect_message("a player notice", e.fields, e.keep,
+                              [&] { return c.link->next_player_notice(options_.timeout); });
     }
 
     std::string perform(expect_event_step const& e, client_state& c)
     {
-        json const wanted = vars_.resolve(e.fields);
-        std::string const expected = "a sensor event" + (wanted.empty() ? std::string() : " with " + describe_json(wanted));
-        auto const event = c.link->next_event(options_.timeout);
-        if (!event)
+        return expect_message("a sensor event", e.fields, e.keep,
+                              [&] { return c.link->next_event(options_.timeout); });
+    }
+
+    /// The next message `next()` hands out (nothing: none came in time), held to the fields
+    /// a step wants and kept as the step says: expect_player and expect_event.
+    template <class Next>
+    std::string expect_message(char const* what, json const& fields, keep_map const& keep_as, Next next)
+    {
+        json const wanted = vars_.resolve(fields);
+        std::string const expected = what + (wanted.empty() ? std::string() : " with " + describe_json(wanted));
+        auto const message = next();
+        if (!message)
             throw step_failed{expected, "none within " + std::to_string(options_.timeout.count()) + " ms"};
-        json got = json::parse(protocol::encode(*event));
+        json got = json::parse(protocol::encode(*message));
         got.erase("type");
         for (auto const& [field, value] : wanted.items()) {
             json const& have = got.contains(field) ? got[field] : json();
             if (!same(have, value))
                 throw step_failed{expected, describe_json(got)};
         }
-        keep(e.keep, got);
+        keep(keep_as, got);
         return describe_json(got);
     }
 
