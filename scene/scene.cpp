@@ -184,19 +184,25 @@ double read_mass(json const& obj, location const& at, double radius, bool is_sta
     at.fail("needs a mass (kg) or a density (kg/m^3)");
 }
 
-/// A body's tag: 1 to max_tag_bytes bytes of UTF-8 without control characters (the protocol's
-/// rule for spawn.body.tag: every client is shown it).
+/// A label every client is shown (a body's tag, a sensor's name): 1 to `most` bytes of UTF-8
+/// without control characters, as the protocol has it. `what` names it in the message.
+std::string read_label(json const& value, location const& at, char const* what, std::size_t most)
+{
+    std::string const label = text(value, at);
+    if (label.empty() || label.size() > most)
+        at.fail(std::string(what) + " must be 1 to " + std::to_string(most) + " bytes of UTF-8, got " +
+                std::to_string(label.size()));
+    for (char const ch : label)
+        if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
+            at.fail(std::string(what) + " must not hold control characters (found the byte " +
+                    std::to_string(static_cast<unsigned>(c)) + ")");
+    return label;
+}
+
+/// A body's tag (the protocol's rule for spawn.body.tag).
 std::string read_tag(json const& value, location const& at)
 {
-    std::string const tag = text(value, at);
-    if (tag.empty() || tag.size() > max_tag_bytes)
-        at.fail("a body's tag must be 1 to " + std::to_string(max_tag_bytes) + " bytes of UTF-8, got " +
-                std::to_string(tag.size()));
-    for (char const ch : tag)
-        if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
-            at.fail("a body's tag must not hold control characters (found the byte " +
-                    std::to_string(static_cast<unsigned>(c)) + ")");
-    return tag;
+    return read_label(value, at, "a body's tag", max_tag_bytes);
 }
 
 physics::body_desc read_body(json const& value, location const& at, std::string& tag)
@@ -349,15 +355,7 @@ sensor_settings read_sensor(json const& value, location const& at)
 {
     object(value, at, {"name", "box", "ball"});
     sensor_settings out;
-    location const name_at = at / "name";
-    out.name = text(required(value, "name", at), name_at);
-    if (out.name.empty() || out.name.size() > max_sensor_name_bytes)
-        name_at.fail("a sensor's name must be 1 to " + std::to_string(max_sensor_name_bytes) +
-                     " bytes of UTF-8, got " + std::to_string(out.name.size()));
-    for (char const ch : out.name)
-        if (auto const c = static_cast<unsigned char>(ch); c < 0x20 || c == 0x7f)
-            name_at.fail("a sensor's name must not hold control characters (found the byte " +
-                         std::to_string(static_cast<unsigned>(c)) + ")");
+    out.name = read_label(required(value, "name", at), at / "name", "a sensor's name", max_sensor_name_bytes);
     auto const* box = find(value, "box");
     auto const* ball = find(value, "ball");
     if ((box != nullptr) == (ball != nullptr))
