@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <stdexcept>
+#include <tuple>
 
 namespace kugel::physics {
 
@@ -38,6 +39,8 @@ bool world::remove_body(body_id id)
     vec3 const x = bodies_.positions()[*slot];
     double const r = bodies_.radii()[*slot];
     bodies_.remove(id);
+    if (reporting_ > 0)
+        forget_contacts(id);
     // The storage moved its last body into the hole: so do the sleeping columns.
     calm_[*slot] = calm_.back();
     calm_.pop_back();
@@ -290,6 +293,7 @@ void world::step(double dt)
         throw std::invalid_argument("step dt must be finite and >= 0");
     bool const sleeping = sleeping_applies() && dt > 0.0;
     sensor_events_.clear();
+    contact_events_.clear();
     if (sleeping) { // a step's islands start as one body each
         parent_.resize(bodies_.size());
         for (std::uint32_t i = 0; i < parent_.size(); ++i)
@@ -303,12 +307,15 @@ void world::step(double dt)
         undo_x_.assign(bodies_.positions().begin(), bodies_.positions().end());
         undo_v_.assign(bodies_.velocities().begin(), bodies_.velocities().end());
         auto const inside_before = inside_; // what the sensors held (empty without sensors)
+        auto const touching_before = touching_; // the pairs touching (empty without reports)
         auto const undo = [&] {
             std::ranges::copy(undo_x_, bodies_.positions().begin());
             std::ranges::copy(undo_v_, bodies_.velocities().begin());
             workspace_.invalidate();
             inside_ = inside_before;
             sensor_events_.clear();
+            touching_ = touching_before;
+            contact_events_.clear();
         };
         try {
             substeps(dt);
@@ -337,6 +344,12 @@ void world::step(double dt)
             return a.sensor < b.sensor;
         return a.body.index != b.body.index ? a.body.index < b.body.index : a.body.generation < b.body.generation;
     });
+    std::sort(contact_events_.begin(), contact_events_.end(), [](contact_event const& a, contact_event const& b) {
+        auto const key = [](contact_event const& e) {
+            return std::tuple(e.time, e.a.index, e.a.generation, e.b.index, e.b.generation);
+        };
+        return key(a) < key(b);
+    });
 }
 
 void world::substeps(double dt)
@@ -346,6 +359,7 @@ void world::substeps(double dt)
     for (int substep = 0; substep < settings_.substeps; ++substep) {
         if (!sensors_.empty())
             keep_sensor_start();
+        keep_touches();
         switch (mode) {
         case collision_mode::off:
             move_freely(h);               // forces where the integrator needs them, and the integrator
@@ -357,6 +371,7 @@ void world::substeps(double dt)
         case collision_mode::discrete:
             if (forces_.empty()) {
                 collide(h, true);          // a drift, made by the wall pass on its way; the overlaps
+                gathered_ = false;
             } else if (sleeping_ > 0) {
                 move_and_collide_around_sleepers(h); // the same for the awake bodies, sleepers still
             } else {
@@ -370,6 +385,8 @@ void world::substeps(double dt)
         }
         if (!sensors_.empty())
             follow_sensors(h, time_ + static_cast<double>(substep) * h); // who entered and left a sensor, and when
+        if (reporting_ > 0 && mode != collision_mode::off)
+            note_touches(h, time_ + static_cast<double>(substep) * h); // which reported pairs began to touch
     }
     if (mode == collision_mode::discrete && bodies_.size() >= bodies_worth_sorting && steps_ % sort_interval == 0) {
         phase_clock clock(timings_);

@@ -2,6 +2,7 @@
 
 #include "body_storage.hpp"
 #include "collisions.hpp"
+#include "contact_events.hpp"
 #include "forces.hpp"
 #include "integrators.hpp"
 #include "parallel_for.hpp"
@@ -10,6 +11,8 @@
 #include <cstdint>
 #include <memory>
 #include <optional>
+#include <span>
+#include <utility>
 #include <vector>
 
 namespace kugel::physics {
@@ -95,6 +98,20 @@ public:
     /// is counted from the next step (a removed body leaves no event).
     std::span<body_id const> bodies_in_sensor(std::uint32_t index) const { return inside_[index]; }
 
+    /// Contact events (contact_events.hpp): whether the world tells when this body begins to
+    /// touch another it reports. False when the id names no live body. A world that reports
+    /// no body does no work for it; one that does takes a force-free gas through the
+    /// step-by-step loop rather than the calendar (continuous/calendar.hpp): exact either way,
+    /// the last bits differ.
+    bool report_contacts(body_id id, bool on);
+    bool reports_contacts(body_id id) const
+    {
+        return id.index < reports_.size() && reports_[id.index] != 0 && bodies_.contains(id);
+    }
+    /// The contacts that began in the last step() between two reported bodies, by time (then
+    /// by a, then b). Empty in a world that reports no body.
+    std::span<contact_event const> contact_events() const { return contact_events_; }
+
     /// Advances the world by dt seconds (dt finite and >= 0, else std::invalid_argument).
     /// Throws singular_force_error when a force is singular, and step_control_error when the
     /// adaptive integrator cannot meet its tolerance; the world is then unchanged (with
@@ -178,6 +195,15 @@ private:
     /// body's path through every sensor.
     void follow_sensors(double h, double start);
 
+    // Contact events (world_contacts.cpp)
+    /// Before a substep's collisions: whether the collision modes note their pairs' touches.
+    void keep_touches();
+    /// After a substep's collisions, which started at world time `start` and took h: the
+    /// contacts that began.
+    void note_touches(double h, double start);
+    /// A removed body's contacts end.
+    void forget_contacts(body_id id);
+
     // Sleeping (world_sleep.cpp)
     static constexpr std::uint32_t awake = 0; ///< island_of_ of an awake body
     /// Whether this step puts bodies to sleep and keeps sleepers still: discrete mode, under
@@ -216,6 +242,13 @@ private:
     std::vector<sensor_event> sensor_events_;  ///< of the last step
     std::vector<vec3> sensor_x0_, sensor_v0_;  ///< each body at the substep's start
     std::vector<body_id> still_inside_;        ///< scratch
+    // Contact events, by body id index: whether the body is reported (cleared on removal)
+    std::vector<std::uint8_t> reports_;
+    std::size_t reporting_ = 0;                ///< bodies reported
+    /// The reported pairs touching after the last substep, a before b, sorted
+    std::vector<std::pair<body_id, body_id>> touching_;
+    std::vector<contact_event> contact_events_; ///< of the last step
+    std::vector<contact_event> touches_;        ///< scratch: a substep's touches, as events
     // Sleeping, by slot (moved with the bodies by remove_body and sort_bodies_by_cell)
     std::vector<double> calm_;              ///< s the body has been slower than sleep_speed
     std::vector<std::uint32_t> island_of_;  ///< its sleeping island's number, or awake

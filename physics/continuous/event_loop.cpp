@@ -162,6 +162,7 @@ private:
         ws_.changed.assign(n, 0);
         ws_.events_of.assign(n, 0);
         ws_.segments.clear();
+        ws_.touches.clear();
         ws_.members.clear();
         changes_ = 0;
         for (std::size_t i = 0; i < n; ++i)
@@ -468,6 +469,8 @@ private:
                     if (rests) // held together by their forces: they rest against each other
                         detail::hold_resting_pair(p, b_.inverse_mass[i], q, b_.inverse_mass[j], n, reach);
                     ++stats_.sphere_contacts;
+                    if (ws_.keep_contacts)
+                        ws_.touches.push_back({i, j, now});
                 }
             }
             ++ws_.version[j];
@@ -521,7 +524,8 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
 {
     continuous::calendar& kept = workspace.continuous.kept;
     auto outcome = continuous::calendar::outcome::declined;
-    if (settings.event_calendar && obstacles.empty() && !workspace.continuous.keep_segments)
+    if (settings.event_calendar && obstacles.empty() && !workspace.continuous.keep_segments &&
+        !workspace.continuous.keep_contacts)
         outcome = kept.step(settings, walls, bodies, h, stats);
     else
         kept.forget();

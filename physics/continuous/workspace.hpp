@@ -5,6 +5,7 @@
 
 #include "physics/aabb.hpp"
 #include "physics/body_path.hpp"
+#include "physics/contact_events.hpp"
 #include "physics/broadphase.hpp"
 #include "physics/continuous/calendar.hpp"
 #include "physics/continuous/event.hpp"
@@ -37,6 +38,10 @@ struct workspace
     };
     bool keep_segments = false;
     std::vector<segment> segments;
+    /// Kept only when keep_contacts is set (a world that reports contacts): each response to a
+    /// pair of spheres in the step, and when (s from the step's start).
+    bool keep_contacts = false;
+    std::vector<pair_touch> touches;
     path_grid grid;
     /// Force-free worlds in a closed box: the events kept from step to step instead.
     calendar kept;

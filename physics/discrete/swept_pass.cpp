@@ -49,6 +49,7 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
                 collision_stats& stats)
 {
     swept_workspace& sw = ws.swept;
+    sw.touches.clear();
     if (sw.fast.empty())
         return;
     if (!step.settings.sweep) {
@@ -135,6 +136,7 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
 
     for (int attempt = 1;; ++attempt) {
         sw.events->continuous.keep_segments = !every_sphere; // the paths step 4 looks at
+        sw.events->continuous.keep_contacts = sw.keep_contacts;
         // 2. Copies of the swept bodies, in slot order, on the paths free motion gave them.
         sw.members.clear();
         for (std::uint32_t i = 0; i < n; ++i)
@@ -211,6 +213,8 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
         stats.capped_steps += found.capped_steps;
         stats.events += found.events;
         (capped ? stats.unswept_fast_bodies : stats.swept_bodies) += fast_count;
+        for (auto const& t : sw.events->continuous.touches) // from the copies to the bodies
+            sw.touches.push_back({sw.members[t.a], sw.members[t.b], t.time});
         break;
     }
 

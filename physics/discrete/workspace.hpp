@@ -5,6 +5,7 @@
 
 #include "physics/aabb.hpp"
 #include "physics/broadphase.hpp"
+#include "physics/contact_events.hpp"
 #include "physics/continuous/path_grid.hpp"
 #include "physics/discrete/sphere_grid.hpp"
 #include "physics/discrete/stop_table.hpp"
@@ -67,6 +68,10 @@ struct swept_workspace
     std::vector<vec3> v_in;           ///< m/s, each copy's velocity before the events
     std::vector<std::uint32_t> moved_others; ///< the slow bodies the events changed
     std::unique_ptr<collision_workspace> events; ///< the continuous mode's, over the copies
+    /// Kept only when keep_contacts is set (a world that reports contacts): the events'
+    /// responses to pairs of spheres, by body slot, and when (s from the step's start).
+    bool keep_contacts = false;
+    std::vector<pair_touch> touches;
 
     swept_workspace();
     swept_workspace(swept_workspace&&) noexcept;
