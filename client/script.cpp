@@ -284,12 +284,27 @@ step step_at(json const& value, std::size_t number)
     } else if (s.kind == "expect_event") {
         expect_event_step e;
         json const& wanted = object_at(body, inner);
-        only_keys(wanted, {"kind", "sensor", "body", "tag", "tick", "keep"}, inner);
+        only_keys(wanted, {"kind", "sensor", "body", "tag", "owner", "bodies", "tags", "tick", "keep"}, inner);
         if (wanted.contains("kind")) {
             json const& kind = wanted["kind"];
-            if (!is_substituted(kind) && kind != "entered" && kind != "left")
-                (inner / "kind").fail("must be \"entered\" or \"left\", got " + describe(kind));
+            if (!is_substituted(kind) && kind != "entered" && kind != "left" && kind != "contact")
+                (inner / "kind").fail("must be \"entered\", \"left\" or \"contact\", got " + describe(kind));
             e.fields["kind"] = kind;
+        }
+        if (wanted.contains("owner"))
+            e.fields["owner"] = number_or_substituted(wanted["owner"], inner / "owner");
+        if (wanted.contains("bodies")) { // a contact's two bodies, ascending
+            json const& bodies = wanted["bodies"];
+            if (!bodies.is_array() || bodies.size() != 2)
+                (inner / "bodies").fail("must be a contact's two body ids, [a, b], got " + describe(bodies));
+            e.fields["bodies"] = json::array({number_or_substituted(bodies[0], inner / "bodies" / 0U),
+                                              number_or_substituted(bodies[1], inner / "bodies" / 1U)});
+        }
+        if (wanted.contains("tags")) { // and their tags, in that order
+            json const& tags = wanted["tags"];
+            if (!tags.is_array() || tags.size() != 2)
+                (inner / "tags").fail("must be a contact's two tags, [\"ball\", \"post\"], got " + describe(tags));
+            e.fields["tags"] = json::array({string_at(tags[0], inner / "tags" / 0U), string_at(tags[1], inner / "tags" / 1U)});
         }
         if (wanted.contains("sensor"))
             e.fields["sensor"] = string_at(wanted["sensor"], inner / "sensor");

@@ -119,10 +119,10 @@ struct expect_player_step
 /// check it.
 struct expect_event_step
 {
-    /// "kind", "sensor", "body", "tag", "tick" -> the value wanted (variables allowed); a
-    /// null tag: a body without one
+    /// "kind", "sensor", "body", "tag", "owner", "bodies", "tags", "tick" -> the value wanted
+    /// (variables allowed); a null tag: a body without one
     nlohmann::json fields = nlohmann::json::object();
-    keep_map keep; ///< from "body", "tick", "time", "sensor", "kind", "tag"
+    keep_map keep; ///< from any field of the event ("body", "tick", "time", "bodies", ...)
 };
 
 using step_action =

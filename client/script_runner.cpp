@@ -466,7 +466,7 @@ private:
 
     std::string perform(expect_event_step const& e, client_state& c)
     {
-        return expect_message("a sensor event", e.fields, e.keep,
+        return expect_message("an event", e.fields, e.keep,
                               [&] { return c.link->next_event(options_.timeout); });
     }
 

@@ -249,8 +249,24 @@ void filter_list(std::vector<std::string> const& list, location const& at)
 
 void event_kind(std::string const& kind, location const& at)
 {
-    if (kind != "entered" && kind != "left")
-        at.fail(error_code::bad_value, "must be \"entered\" or \"left\", got " + dump(json(shortened(kind))));
+    if (kind != "entered" && kind != "left" && kind != "contact")
+        at.fail(error_code::bad_value,
+                "must be \"entered\", \"left\" or \"contact\", got " + dump(json(shortened(kind))));
+}
+
+/// A contact event's two bodies, or their two tags.
+template <typename T>
+void exactly_two(std::vector<T> const& pair, location const& at)
+{
+    if (pair.size() != 2)
+        at.fail(error_code::bad_value, "must hold the contact's two bodies, got " + std::to_string(pair.size()));
+}
+
+void tag_pair(std::vector<std::string> const& tags, location const& at)
+{
+    exactly_two(tags, at);
+    for (std::size_t i = 0; i < tags.size(); ++i)
+        body_tag(tags[i], at / i);
 }
 
 constexpr auto fields(std::type_identity<event_filter>)
@@ -265,7 +281,8 @@ constexpr auto fields(std::type_identity<event>)
     return std::tuple{member("tick", &event::tick), member("time", &event::time),
                       member("kind", &event::kind, event_kind), member("sensor", &event::sensor, sensor_name),
                       member("body", &event::body), member("tag", &event::tag, body_tag),
-                      member("missed", &event::missed)};
+                      member("owner", &event::owner), member("bodies", &event::bodies, exactly_two<std::uint64_t>),
+                      member("tags", &event::tags, tag_pair), member("missed", &event::missed)};
 }
 
 constexpr auto fields(std::type_identity<hello>)

@@ -60,7 +60,7 @@ struct event_filter
 {
     std::optional<std::vector<std::string>> sensors; ///< sensor names of the room's scene
     std::optional<std::vector<std::string>> tags;    ///< body tags; an untagged body matches none
-    std::optional<std::vector<std::string>> kinds;   ///< "entered", "left"
+    std::optional<std::vector<std::string>> kinds;   ///< "entered", "left", "contact"
 
     bool operator==(event_filter const&) const = default;
 };
@@ -506,11 +506,17 @@ struct event
 {
     static constexpr std::string_view type = "event";
     std::uint64_t tick = 0;  ///< the tick whose step it happened in (its snapshot's tick)
-    double time = 0.0;       ///< s: the world time of the crossing, inside that step
-    std::string kind;        ///< "entered" or "left"
-    std::string sensor;      ///< the sensor's name
-    std::uint64_t body = 0;  ///< the body's id, as in snapshots
-    std::optional<std::string> tag;      ///< the body's tag, when it has one
+    double time = 0.0;       ///< s: the world time it happened, inside that step
+    /// "entered" or "left" (a body crossed a sensor's boundary), or "contact" (two bodies
+    /// began to touch)
+    std::string kind;
+    std::optional<std::string> sensor;   ///< entered, left: the sensor's name
+    std::optional<std::uint64_t> body;   ///< entered, left: the body's id, as in snapshots
+    std::optional<std::string> tag;      ///< entered, left: the body's tag, when it has one
+    /// entered, left: the client that spawned the body, when one did (its welcome.client)
+    std::optional<std::uint64_t> owner;
+    std::optional<std::vector<std::uint64_t>> bodies; ///< contact: the two bodies' ids, ascending
+    std::optional<std::vector<std::string>> tags;     ///< contact: their tags, in that order
     /// Events this connection was not sent since the last one it was (its queue of unsent
     /// events was full); absent when none.
     std::optional<std::uint64_t> missed;

@@ -595,7 +595,7 @@ scene read_scene(json const& doc, location const& at)
     object(doc, at,
            {"$schema", "name", "description", "dt", "substeps", "integrator", "tolerance", "forces",
              "collisions", "walls", "box", "obstacles", "bodies", "generators", "snapshots", "permissions",
-             "players", "sensors"});
+             "players", "sensors", "contacts"});
     scene s;
     s.name = optional_field(doc, "name", at, std::string("unnamed"), text);
     s.description = optional_field(doc, "description", at, std::string(), text);
@@ -659,6 +659,18 @@ scene read_scene(json const& doc, location const& at)
                 if (s.sensors[j].name == s.sensors.back().name)
                     (s_at / "name").fail("sensor names must be unique: '" + s.sensors.back().name +
                                          "' is also /sensors/" + std::to_string(j));
+        }
+    }
+    if (auto const* contacts = find(doc, "contacts")) {
+        if (!contacts->is_array() || contacts->size() > max_contact_rules)
+            (at / "contacts").fail("must be an array of at most " + std::to_string(max_contact_rules) +
+                                   " pairs of tags, got " + describe(*contacts));
+        for (std::size_t i = 0; i < contacts->size(); ++i) {
+            location const c_at = at / "contacts" / i;
+            json const& pair = (*contacts)[i];
+            if (!pair.is_array() || pair.size() != 2)
+                c_at.fail("must be a pair of body tags, [\"ball\", \"post\"], got " + describe(pair));
+            s.contacts.push_back({{read_tag(pair[0], c_at / std::size_t{0}), read_tag(pair[1], c_at / std::size_t{1})}});
         }
     }
     if (auto const* bodies = find(doc, "bodies")) {

@@ -7,6 +7,7 @@
 #include "physics/integrators.hpp"
 #include "physics/world.hpp"
 
+#include <array>
 #include <cstdint>
 #include <filesystem>
 #include <optional>
@@ -161,6 +162,23 @@ struct sensor_settings
     physics::sensor volume;
 };
 
+/// The most `contacts` rules a scene may hold.
+inline constexpr std::size_t max_contact_rules = 32;
+
+/// A rule of `contacts`: the contacts between a body tagged `tags[0]` and one tagged `tags[1]`
+/// are reported (physics/contact_events.hpp); the order does not matter, and both may be the
+/// same tag.
+struct contact_rule
+{
+    std::array<std::string, 2> tags;
+
+    /// Whether bodies with these two tags are the rule's pair, in either order.
+    bool matches(std::string const& a, std::string const& b) const
+    {
+        return (a == tags[0] && b == tags[1]) || (a == tags[1] && b == tags[0]);
+    }
+};
+
 /// A validated scene: everything a world needs, in engine units.
 struct scene
 {
@@ -177,6 +195,8 @@ struct scene
     std::vector<obstacle_settings> obstacles;
     /// The world's sensors, in this order (sensor i of the world is sensors[i]).
     std::vector<sensor_settings> sensors;
+    /// The pairs of tags whose contacts are reported (a room's `event` messages).
+    std::vector<contact_rule> contacts;
     std::vector<physics::body_desc> bodies;
     /// bodies[i]'s tag, "" for none (the world's first bodies, in this order, are these)
     std::vector<std::string> body_tags;

@@ -13,6 +13,7 @@
 #include <fmt/ranges.h>
 
 #include <algorithm>
+#include <array>
 #include <cmath>
 #include <ctime>
 
@@ -138,7 +139,17 @@ void room::tag_scene_bodies(scene::scene const& s)
     auto const ids = world_.bodies().ids();
     for (std::size_t i = 0; i < s.body_tags.size() && i < ids.size(); ++i)
         if (!s.body_tags[i].empty())
-            tag_of_wire_id_[wire_id_of_index_[ids[i].index]] = s.body_tags[i];
+            tag_body(wire_id_of_index_[ids[i].index], ids[i], s.body_tags[i], s);
+}
+
+void room::tag_body(std::uint64_t wire_id, physics::body_id id, std::string const& tag, scene::scene const& s)
+{
+    tag_of_wire_id_[wire_id] = tag;
+    // A body whose tag a contacts rule names is reported by the world (and no other: a scene
+    // without rules pays nothing).
+    if (std::any_of(s.contacts.begin(), s.contacts.end(),
+                    [&](scene::contact_rule const& r) { return r.tags[0] == tag || r.tags[1] == tag; }))
+        world_.report_contacts(id, true);
 }
 
 checkpoint room::take_checkpoint() const
@@ -592,23 +603,31 @@ bool room::wants(protocol::event_filter const& filter, protocol::event const& e)
     auto const in = [](std::optional<std::vector<std::string>> const& list, std::string const& value) {
         return !list || std::find(list->begin(), list->end(), value) != list->end();
     };
-    if (!in(filter.sensors, e.sensor) || !in(filter.kinds, e.kind))
+    if (!in(filter.kinds, e.kind))
         return false;
-    return !filter.tags || (e.tag && in(filter.tags, *e.tag));
+    if (filter.sensors && !(e.sensor && in(filter.sensors, *e.sensor)))
+        return false; // a contact names no sensor
+    if (!filter.tags)
+        return true;
+    if (e.tags) // a contact: either body's tag
+        return std::any_of(e.tags->begin(), e.tags->end(), [&](std::string const& t) { return in(filter.tags, t); });
+    return e.tag && in(filter.tags, *e.tag);
 }
 
 void room::send_events()
 {
     auto const crossings = world_.sensor_events();
-    if (crossings.empty())
-        return; // a scene without sensors, or a quiet step: nothing more
+    auto const contacts = world_.contact_events();
+    if (crossings.empty() && contacts.empty())
+        return; // a scene without sensors or contacts, or a quiet step: nothing more
     bool const heard = std::any_of(sessions_.begin(), sessions_.end(),
                                    [](member const& m) { return m.events.has_value(); });
     if (!heard)
         return; // nobody subscribes: no event is built
-    // Each event is built and encoded once, then handed to every member it matches.
-    std::vector<queued_event> events;
-    events.reserve(crossings.size());
+    // Each event is built and encoded once, then handed to every member it matches. The
+    // world lists each kind by time; so does the room, crossings first at equal times.
+    std::vector<protocol::event> built;
+    built.reserve(crossings.size() + contacts.size());
     for (physics::sensor_event const& c : crossings) {
         if (c.sensor >= scene_.sensors.size() || c.body.index >= wire_id_of_index_.size())
             continue; // cannot happen: the world's sensors are the scene's, its bodies the room's
@@ -617,9 +636,40 @@ void room::send_events()
         e.time = c.time;
         e.kind = c.entered ? "entered" : "left";
         e.sensor = scene_.sensors[c.sensor].name;
-        e.body = wire_id_of_index_[c.body.index];
-        if (auto const tag = tag_of_wire_id_.find(e.body); tag != tag_of_wire_id_.end())
+        std::uint64_t const body = wire_id_of_index_[c.body.index];
+        e.body = body;
+        if (auto const tag = tag_of_wire_id_.find(body); tag != tag_of_wire_id_.end())
             e.tag = tag->second;
+        if (auto const owner = owner_of_wire_id_.find(body); owner != owner_of_wire_id_.end())
+            e.owner = owner->second;
+        built.push_back(std::move(e));
+    }
+    for (physics::contact_event const& c : contacts) {
+        if (c.a.index >= wire_id_of_index_.size() || c.b.index >= wire_id_of_index_.size())
+            continue; // cannot happen: the world's bodies are the room's
+        std::array ids{wire_id_of_index_[c.a.index], wire_id_of_index_[c.b.index]};
+        if (ids[1] < ids[0])
+            std::swap(ids[0], ids[1]);
+        auto const tag_a = tag_of_wire_id_.find(ids[0]), tag_b = tag_of_wire_id_.find(ids[1]);
+        if (tag_a == tag_of_wire_id_.end() || tag_b == tag_of_wire_id_.end())
+            continue; // cannot happen: only tagged bodies are reported
+        if (std::none_of(scene_.contacts.begin(), scene_.contacts.end(), [&](scene::contact_rule const& r) {
+                return r.matches(tag_a->second, tag_b->second);
+            }))
+            continue; // two reported bodies whose tags no rule pairs ("ball" and "ball" under a ball–post rule)
+        protocol::event e;
+        e.tick = counters_.ticks;
+        e.time = c.time;
+        e.kind = "contact";
+        e.bodies = std::vector<std::uint64_t>{ids[0], ids[1]};
+        e.tags = std::vector<std::string>{tag_a->second, tag_b->second};
+        built.push_back(std::move(e));
+    }
+    std::stable_sort(built.begin(), built.end(),
+                     [](protocol::event const& a, protocol::event const& b) { return a.time < b.time; });
+    std::vector<queued_event> events;
+    events.reserve(built.size());
+    for (protocol::event& e : built) {
         auto bytes = share(protocol::encode(e));
         events.push_back({std::make_shared<protocol::event const>(std::move(e)), std::move(bytes)});
     }
@@ -761,7 +811,7 @@ void room::apply(protocol::spawn const& spawn, websocket_session& from, bool adm
     owner_of_wire_id_.emplace(id, from.client_id());
     ++bodies_of_client_[from.client_id()];
     if (body.tag)
-        tag_of_wire_id_.emplace(id, *body.tag);
+        tag_body(id, body_of_wire_id_.find(id)->second, *body.tag, scene_);
     from.send_reply(share(protocol::encode(protocol::ack{spawn.ref, counters_.ticks + 1, id})));
 }
 

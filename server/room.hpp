@@ -249,6 +249,9 @@ private:
                                                   bool admin, bool push) const;
     /// The tags of the scene's bodies, as build_world put them in the world's first slots.
     void tag_scene_bodies(scene::scene const& s);
+    /// Gives a body its tag; the world reports its contacts when a rule of `s.contacts` names
+    /// the tag.
+    void tag_body(std::uint64_t wire_id, physics::body_id id, std::string const& tag, scene::scene const& s);
     /// Drops a body the world no longer holds from the ids, owners and counts.
     void forget_body(std::uint64_t wire_id);
     /// Removes the bodies a failed step names, and records the fault.

@@ -69,16 +69,23 @@ TEST(Script, ExpectEventReadsItsFields)
     script const s = parse_script(R"({"steps": [
         {"client": "fan", "expect_event": {"kind": "entered", "sensor": "goal", "body": "$ball", "tag": null,
                                            "tick": 12, "keep": {"at": "time"}}},
-        {"expect_event": {}}]})");
-    ASSERT_EQ(s.steps.size(), 2U);
+        {"expect_event": {}},
+        {"expect_event": {"kind": "contact", "bodies": [1, "$ball"], "tags": ["post", "ball"]}}]})");
+    ASSERT_EQ(s.steps.size(), 3U);
     EXPECT_EQ(s.steps[0].kind, "expect_event");
     auto const& e = std::get<expect_event_step>(s.steps[0].action);
     EXPECT_EQ(e.fields, (nlohmann::json{{"kind", "entered"}, {"sensor", "goal"}, {"body", "$ball"}, {"tag", nullptr},
                                         {"tick", 12}}));
     EXPECT_EQ(e.keep.at("at"), "time");
     EXPECT_TRUE(std::get<expect_event_step>(s.steps[1].action).fields.empty());
+    EXPECT_EQ(std::get<expect_event_step>(s.steps[2].action).fields,
+              (nlohmann::json{{"kind", "contact"}, {"bodies", {1, "$ball"}}, {"tags", {"post", "ball"}}}));
     EXPECT_NE(refusal(one_step(R"({"expect_event": {"kind": "stayed"}})"))
-                  .find(R"(step 1 (expect_event): /expect_event/kind: must be "entered" or "left")"),
+                  .find(R"(step 1 (expect_event): /expect_event/kind: must be "entered", "left" or "contact")"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_event": {"bodies": [1]}})")).find("/expect_event/bodies: must be a contact's two body ids"),
+              std::string::npos);
+    EXPECT_NE(refusal(one_step(R"({"expect_event": {"tags": ["ball", 2]}})")).find("/expect_event/tags/1"),
               std::string::npos);
     EXPECT_NE(refusal(one_step(R"({"expect_event": {"tag": 7}})")).find("/expect_event/tag: must be a string"),
               std::string::npos);

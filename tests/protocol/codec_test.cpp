@@ -434,7 +434,7 @@ std::vector<bad_case> bad_client_messages()
         bad_case{"events_tag_with_a_tab", R"({"type": "hello", "events": {"tags": ["a\tb"]}})", error_code::bad_value,
                  "/events/tags/0: must not hold control characters (found the byte 9)", std::nullopt},
         bad_case{"events_unknown_kind", R"({"type": "hello", "events": {"kinds": ["entered", "stayed"]}})",
-                 error_code::bad_value, "/events/kinds/1: must be \"entered\" or \"left\", got \"stayed\"",
+                 error_code::bad_value, "/events/kinds/1: must be \"entered\", \"left\" or \"contact\", got \"stayed\"",
                  std::nullopt},
         bad_case{"events_too_many_tags", R"({"type": "hello", "events": {"tags": [)" + [] {
                      std::string list;

@@ -321,7 +321,7 @@ TEST(Events, BadSubscriptionsAreRefusedAndChangeNothing)
               "/events/sensors/1: the room's scene has no sensor \"gaol\" (its sensors: \"goal\", \"zone\")");
     EXPECT_FALSE(unknown.contains("ref"));
     c.ws.send(json{{"type", "hello"}, {"events", {{"kinds", {"stayed"}}}}});
-    EXPECT_EQ(c.next("error").at("message"), "/events/kinds/0: must be \"entered\" or \"left\", got \"stayed\"");
+    EXPECT_EQ(c.next("error").at("message"), "/events/kinds/0: must be \"entered\", \"left\" or \"contact\", got \"stayed\"");
     c.ws.send(json{{"type", "hello"}, {"events", {{"tags", json::array()}}}});
     EXPECT_EQ(c.next("error").at("code"), "bad_value");
     c.ws.send(json{{"type", "hello"}, {"events", "all"}});
@@ -348,6 +348,61 @@ TEST(Events, ASceneWithoutSensorsHasNone)
     auto const [id, tick] = c.spawn(2, {0, 0, 0}, {5, 0, 0});
     (void)id;
     EXPECT_TRUE(c.events_until(tick + 20).empty());
+}
+
+/// Continuous mode, no forces, walls at ±10 m: a fixed post (tag "post", radius 0.5) at x =
+/// 3, a fixed rock (tag "rock") off the axis, and one rule: contacts between a "ball" and a
+/// "post".
+json contact_scene()
+{
+    return {{"name", "contacts"},
+            {"dt", dt},
+            {"integrator", "semi_implicit_euler"},
+            {"collisions", {{"mode", "continuous"}}},
+            {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+            {"bodies", json::array({{{"position", {3, 0, 0}}, {"radius", 0.5}, {"mass", 0}, {"static", true}, {"tag", "post"}},
+                                    {{"position", {3, 4, 0}}, {"radius", 0.5}, {"mass", 0}, {"static", true}, {"tag", "rock"}}})},
+            {"contacts", json::array({json::array({"ball", "post"})})}};
+}
+
+// A ball (radius 0.5) spawned at x = −0.1 moving at 2 m/s along x touches the post (radius
+// 0.5, centre x = 3) when its centre reaches x = 2, 1.05 s (67.2 steps) after its step's start. Continuous mode
+// times the contact at its event, the root of the pair's distance along a straight path:
+// exact but for rounding, so 1e-9 s (as for crossings) also pins it to its tick. The event
+// names both bodies, ascending, with their tags; a ball aimed at the rock, which no rule
+// pairs with a ball, and an untagged ball aimed at the post are not reported.
+TEST(Events, AContactBetweenTaggedBodiesIsReportedAtItsTimeOfImpact)
+{
+    test_support::in_process_server s(one_room("contact", contact_scene()));
+    client watcher(s.port());
+    client sensors_only(s.port());
+    watcher.subscribe(json{{"tags", {"post"}}}, 1);
+    sensors_only.subscribe(json{{"kinds", {"entered", "left"}}}, 1);
+
+    auto spawn_ball = [&](std::uint64_t ref, std::array<double, 3> at, std::optional<std::string> tag) {
+        json body = {{"position", at}, {"velocity", {2, 0, 0}}, {"radius", 0.5}, {"mass", 1.0}};
+        if (tag)
+            body["tag"] = *tag;
+        watcher.ws.send(json{{"type", "spawn"}, {"ref", ref}, {"body", body}});
+        json const ack = watcher.next("ack");
+        return std::pair{ack.at("id").get<std::uint64_t>(), ack.at("tick").get<std::uint64_t>()};
+    };
+    auto const [ball, tick] = spawn_ball(2, {-0.1, 0, 0}, "ball");
+    spawn_ball(3, {-0.1, 4, 0}, "ball");    // at the rock: no rule
+    spawn_ball(4, {-6, 0, 0}, std::nullopt); // untagged, behind the first
+    double const t_touch = static_cast<double>(tick - 1) * dt + 1.05;
+    std::uint64_t const touch_tick = tick + 67; // its step runs from start + 67·dt to start + 68·dt
+    auto const events = watcher.events_until(touch_tick + 8);
+    ASSERT_EQ(events.size(), 1U) << events.back().dump();
+    json const& e = events[0];
+    EXPECT_EQ(e.at("kind"), "contact");
+    EXPECT_EQ(e.at("bodies"), json::array({1, ball})) << "the post is the scene's first body";
+    EXPECT_EQ(e.at("tags"), json::array({"post", "ball"}));
+    EXPECT_FALSE(e.contains("sensor"));
+    EXPECT_FALSE(e.contains("body"));
+    EXPECT_NEAR(e.at("time").get<double>(), t_touch, 1e-9);
+    EXPECT_EQ(e.at("tick"), touch_tick);
+    EXPECT_TRUE(sensors_only.events_until(touch_tick + 8).empty()) << "kinds without contact";
 }
 
 } // namespace

@@ -287,6 +287,8 @@ std::vector<hostile_case> catalogue()
         {"events with an empty tag list", R"({"type":"hello","events":{"tags":[]}})", refused("bad_value", "/events/tags")},
         {"events of an unknown kind", R"({"type":"hello","events":{"kinds":["stayed"]}})",
          refused("bad_value", "/events/kinds/0")},
+        {"events of a kind cased otherwise", R"({"type":"hello","events":{"kinds":["contact","Contact"]}})",
+         refused("bad_value", "/events/kinds/1")},
         {"events sensor name with a newline", R"({"type":"hello","events":{"sensors":["ga\nte"]}})",
          refused("bad_value", "/events/sensors/0")},
         {"events with 65 sensors", R"({"type":"hello","events":{"sensors":)" + [] {
