@@ -20,6 +20,7 @@ const plain_words = {
   unknown_body: 'that sphere is no longer in the world',
   bad_value: 'a value is out of range',
   missing_field: 'a value is missing',
+  bad_resume: 'this page could not come back as the player it was (the server no longer keeps it), and plays on as a new one',
 };
 
 /** A readable line for an `error` message; `command` is the refused command's type, if known. */
