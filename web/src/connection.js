@@ -71,14 +71,19 @@ export class Connection {
    * worker_url: the bundled parse_worker.js, or null to parse on the main thread.
    * on_refused(why, message): a snapshot that could not be read, and what of it could.
    * form: the snapshot form to ask for, 'compact' or 'full'.
+   * hello(first_on_socket, welcome): what each hello says besides the protocol and the
+   * snapshots it asks for (the player's name; on a socket's first hello, after its first
+   * welcome, also what is asked once: events, a resume).
    */
-  constructor({ url, on_message, on_state, on_attempt_failed = () => {}, on_refused = () => {}, ping_interval = 1000, backoff = {}, worker_url = null, form = 'compact' }) {
+  constructor({ url, on_message, on_state, on_attempt_failed = () => {}, on_refused = () => {}, ping_interval = 1000, backoff = {}, worker_url = null, form = 'compact', hello = () => ({ name: 'kugel page' }) }) {
     this.url = url;
     this.on_message = on_message;
     this.on_state = on_state;
     this.on_attempt_failed = on_attempt_failed;
     this.on_refused = on_refused;
     this.form = form; // what the next hello asks for
+    this.hello = hello;
+    this.welcome = null; // the newest welcome on this socket
     this.room_rate = null; // Hz: the room's snapshot rate, from the welcome
     this.asked_rate = null; // Hz: what the last hello asked for
     this.granted = null; // the welcome's `snapshots`: what the server sends this socket
@@ -118,6 +123,7 @@ export class Connection {
     this.hello_sent = false;
     this.socket_welcomes = 0;
     this.granted = null;
+    this.welcome = null;
     this.in_flight = 0;
     this.min_in_flight = 0;
     this.stream = new CompactStream();
@@ -171,9 +177,10 @@ export class Connection {
   }
 
   /** Asks for the snapshots this connection wants: its form, at `rate` Hz. */
-  ask_for_snapshots(rate) {
+  ask_for_snapshots(rate, first_on_socket = false) {
     this.asked_rate = rate;
-    return this.send_without_ref({ type: 'hello', protocol: 1, name: 'kugel page', snapshots: { form: this.form, rate } });
+    const fields = this.hello(first_on_socket, this.welcome);
+    return this.send_without_ref({ type: 'hello', protocol: 1, ...fields, snapshots: { form: this.form, rate } });
   }
 
   receive(parsed) {
@@ -196,8 +203,9 @@ export class Connection {
         this.start_pings();
       }
       this.room_rate = message.snapshot_rate ?? null;
+      this.welcome = message;
       if (message.snapshots) this.granted = message.snapshots;
-      else if (!this.hello_sent && this.room_rate) this.hello_sent = this.ask_for_snapshots(this.room_rate);
+      else if (!this.hello_sent && this.room_rate) this.hello_sent = this.ask_for_snapshots(this.room_rate, true);
     } else if (message.type === 'pong' && this.pings.has(message.ref)) {
       this.rtt_ms = performance.now() - this.pings.get(message.ref);
       this.pings.delete(message.ref);

@@ -1,7 +1,7 @@
 // The heads-up display: connection state, room (and a picker when the server hosts several),
 // tick, bodies, snapshots per second, bytes received per second and the snapshot form,
 // round trip, server tick time, frame rate, the room's players; the colour
-// legend; and the server's errors as readable messages.
+// legend; the game mode's scoreboard; and the server's errors as readable messages.
 import { charge_stops, speed_stops } from './colour_scale.js';
 
 const message_seconds = 8; // how long an error stays on screen
@@ -20,6 +20,7 @@ const plain_words = {
   unknown_body: 'that sphere is no longer in the world',
   bad_value: 'a value is out of range',
   missing_field: 'a value is missing',
+  bad_resume: 'this page could not come back as the player it was (the server no longer keeps it), and plays on as a new one',
 };
 
 /** A readable line for an `error` message; `command` is the refused command's type, if known. */
@@ -49,6 +50,7 @@ export class Hud {
     this.tick_time = $('hud-tick-time');
     this.fps = $('hud-fps');
     this.players = $('hud-players');
+    this.scoreboard = $('scoreboard');
     this.messages = $('messages');
     this.legend_title = $('legend-title');
     this.legend_bar = $('legend-bar');
@@ -93,6 +95,34 @@ export class Hud {
   }
 
   /**
+   * The game's scoreboard (game.js, Game.scoreboard): a row per player with its colour, its
+   * name ("(you)" after this tab's) and its goals; "(away)" for a player whose connection
+   * dropped and may come back.
+   */
+  set_scoreboard(rows) {
+    this.scoreboard.replaceChildren(
+      ...rows.map((row) => {
+        const item = this.document.createElement('li');
+        item.dataset.player = String(row.id);
+        if (row.you) item.dataset.you = '';
+        if (row.away) item.dataset.away = '';
+        const swatch = this.document.createElement('span');
+        swatch.className = 'swatch';
+        swatch.style.background = row.colour;
+        const name = this.document.createElement('span');
+        name.className = 'name';
+        name.textContent = row.name + (row.you ? ' (you)' : '') + (row.away ? ' (away)' : '');
+        name.title = name.textContent;
+        const score = this.document.createElement('span');
+        score.className = 'score';
+        score.textContent = String(row.score);
+        item.append(swatch, name, score);
+        return item;
+      }),
+    );
+  }
+
+  /**
    * stats: {tick, bodies, snapshots_per_second, bytes_per_second, form, snapshots, rtt_ms,
    * tick_ms, frames_per_second}; null shows a dash.
    */
@@ -127,10 +157,10 @@ export class Hud {
     }
   }
 
-  /** Shows a line of text among the messages for a while (no error code). */
-  show_notice(text) {
+  /** Shows a line of text among the messages for a while (no error code); kind 'goal' shows it as good news. */
+  show_notice(text, kind = null) {
     const element = this.document.createElement('div');
-    element.className = 'message';
+    element.className = kind ? `message ${kind}` : 'message';
     element.textContent = text;
     this.messages.append(element);
     while (this.messages.children.length > max_messages) this.messages.firstElementChild.remove();

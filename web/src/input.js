@@ -3,6 +3,8 @@
 // that moment; a click on open space (a scene without walls) spawns one under the pointer,
 // as far from the camera as the scene's centre; a drag that starts on a sphere pushes that
 // sphere, with an arrow showing the push while dragging; any other drag orbits the camera.
+// The game mode (game.js) turns spawning off, lets only the player's own ball be pushed, and
+// pushes along the ground: from the ball to the point of the floor's plane under the pointer.
 import * as THREE from 'three';
 import { dot, unit_wall } from './wall_geometry.js';
 
@@ -29,9 +31,16 @@ export class PointerInput {
    * on_spawn(position, radius, density), on_impulse(id, impulse, delta_v).
    * on_nothing_spawned(why): a click that spawned nothing, and why, in words.
    * walls(): the current scene's walls. mass_of(frame, index): the body's mass in kg.
+   * spawns: whether a click spawns. can_push(id): whether a drag from that body pushes it
+   * (else it turns the camera). ground: push in the horizontal plane through the body's
+   * centre, not the plane facing the camera. max_delta_v: m/s, the longest push.
    */
-  constructor({ view, settings, walls, mass_of, on_spawn, on_impulse, on_nothing_spawned, label }) {
+  constructor({ view, settings, walls, mass_of, on_spawn, on_impulse, on_nothing_spawned, label, spawns = true, can_push = () => true, ground = false, max_delta_v = Infinity }) {
     this.view = view;
+    this.spawns = spawns;
+    this.can_push = can_push;
+    this.ground = ground;
+    this.max_delta_v = max_delta_v;
     this.settings = settings;
     this.walls = walls;
     this.mass_of = mass_of;
@@ -60,7 +69,7 @@ export class PointerInput {
   on_down(event) {
     if (event.button !== 0 || this.drag) return;
     const index = this.view.body_at(event.clientX, event.clientY);
-    if (index < 0) {
+    if (index < 0 || !this.can_push(this.view.frame.id[index])) {
       this.press = { x: event.clientX, y: event.clientY, pointer: event.pointerId };
       return;
     }
@@ -106,6 +115,7 @@ export class PointerInput {
    * scene's centre that faces the camera, where the scene is, rather than nothing at all.
    */
   click(event) {
+    if (!this.spawns) return;
     const { radius, density } = this.settings();
     const hit = this.view.surface_at(event.clientX, event.clientY);
     if (hit) {
@@ -134,9 +144,12 @@ export class PointerInput {
     const index = frame ? index_in(frame, this.drag.id) : -1;
     if (index < 0) return null;
     const centre = new THREE.Vector3().fromArray(frame.position, 3 * index);
-    const pointer = this.view.point_facing_camera(this.drag.x, this.drag.y, centre);
+    const pointer = this.ground
+      ? this.view.point_on_level(this.drag.x, this.drag.y, centre.z)
+      : this.view.point_facing_camera(this.drag.x, this.drag.y, centre);
     if (!pointer) return null;
     const delta_v = pointer.sub(centre).multiplyScalar(this.settings().push); // m/s per m dragged
+    if (delta_v.length() > this.max_delta_v) delta_v.setLength(this.max_delta_v);
     return { id: this.drag.id, centre, delta_v, mass: this.mass_of(frame, index) };
   }
 

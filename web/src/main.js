@@ -1,10 +1,13 @@
 // The page: joins a room, buffers its snapshots, draws them a little in the past every frame,
-// and turns clicks and drags into spawn and impulse commands.
+// and turns clicks and drags into spawn and impulse commands. With `?game` in its URL it is
+// a player of the game (game.js): it spawns a ball of its own, pushes only that, colours
+// every body by its owner and keeps a scoreboard of the room's goals.
 //
 // window.kugel exposes the page's state (connection, tick, bodies, answers to commands) and
 // a few read-only functions, for scripts and for the end-to-end test.
 import { colour_bodies, max_charge, round_up, speed_quantile } from './colour_scale.js';
 import { Connection, room_url } from './connection.js';
+import { colour_by_owner, Game, game_camera, key_direction, key_push, max_speed } from './game.js';
 import { Hud } from './hud.js';
 import { PointerInput } from './input.js';
 import { index_of, PlaybackClock, SnapshotBuffer } from './interpolation.js';
@@ -27,6 +30,10 @@ const settings = {
   push: number_input('push-strength'), // m/s of Δv per m dragged
 };
 const colour_mode = document.getElementById('colour-mode');
+const parameters = new URLSearchParams(window.location.search);
+const game = parameters.has('game')
+  ? new Game({ send: (command) => send(command), storage: session_storage(), name: parameters.get('name') })
+  : null;
 
 const state = {
   connection: 'connecting',
@@ -56,7 +63,7 @@ const state = {
   welcomes: 0,
   paused: false, // an admin paused the room: snapshots keep coming, time stands still
   me: null, // this page's player id: its welcome's client
-  players: [], // the room's players, by id: {id, name} (name null until its hello names it)
+  players: [], // the room's players, by id: {id, name, away} (name null until its hello names it)
   acks: [], // the last few: {ref, tick, id, command}
   errors: [], // the last few: {ref, code, message, command}
 };
@@ -78,10 +85,56 @@ const input = new PointerInput({
   // kg: the snapshot's (kugel-server always sends masses); a server without them: the panel's density.
   mass_of: (frame, i) => (frame.mass ? frame.mass[i] : settings.density() * (4 / 3) * Math.PI * frame.radius[i] ** 3),
   on_spawn: (position, radius, density) => send({ type: 'spawn', body: { position, radius, density } }),
-  on_impulse: (id, impulse) => send({ type: 'impulse', id, impulse }),
+  on_impulse: (id, impulse, delta_v) => (game ? game.push(delta_v) : send({ type: 'impulse', id, impulse })),
   on_nothing_spawned: (why) => hud.show_notice(`Nothing spawned: ${why}.`),
   label: document.getElementById('push-label'),
+  // The game: no spawning by click, only this player's ball is pushed, along the pitch.
+  spawns: game === null,
+  can_push: (id) => game === null || id === game.ball,
+  ground: game !== null,
+  max_delta_v: game ? max_speed : Infinity,
 });
+
+/** This tab's sessionStorage, or null where the browser allows none. */
+function session_storage() {
+  try {
+    return window.sessionStorage;
+  } catch {
+    return null;
+  }
+}
+
+function show_scoreboard() {
+  if (game) hud.set_scoreboard(game.scoreboard(state.players));
+}
+
+/** The game's keys: arrows or WASD push this player's ball as the camera sees the pitch, space stops it. */
+function on_key(event) {
+  if (event.target instanceof HTMLInputElement || event.target instanceof HTMLSelectElement) return;
+  if (event.ctrlKey || event.metaKey || event.altKey) return;
+  if (event.key === ' ') {
+    event.preventDefault();
+    game.brake();
+    return;
+  }
+  const direction = key_direction(event.key, view.forward());
+  if (!direction) return;
+  event.preventDefault();
+  game.push([key_push * direction[0], key_push * direction[1], 0]);
+}
+
+if (game) {
+  document.body.classList.add('game');
+  for (const id of ['panel', 'legend', 'help']) document.getElementById(id).hidden = true;
+  for (const id of ['game', 'game-help']) document.getElementById(id).hidden = false;
+  const name_input = document.getElementById('player-name');
+  name_input.value = game.name;
+  name_input.addEventListener('change', () => {
+    const name = name_input.value.trim();
+    if (name && name !== game.name) connection?.send_without_ref(game.rename(name));
+  });
+  window.addEventListener('keydown', on_key);
+}
 
 function send(command) {
   const ref = connection?.send(command) ?? null;
@@ -111,6 +164,7 @@ function on_message(message, snapshot) {
       const command = commands.get(message.ref) ?? null;
       commands.delete(message.ref);
       remember(state.acks, { ref: message.ref, tick: message.tick, id: message.id ?? null, command });
+      game?.on_ack(message);
       break;
     }
     case 'error': {
@@ -118,22 +172,34 @@ function on_message(message, snapshot) {
       commands.delete(message.ref);
       hud.show_error(message, command);
       remember(state.errors, { ref: message.ref ?? null, code: message.code, message: message.message, command });
+      game?.on_error(message);
+      break;
+    }
+    case 'event': {
+      const scorer = game?.on_event(message) ?? null;
+      if (scorer === null) break;
+      const player = state.players.find((p) => p.id === scorer);
+      const who = scorer === state.me ? 'You' : (player?.name ?? `player ${scorer}`);
+      hud.show_notice(`Goal! ${who} scored.`, 'goal');
+      show_scoreboard();
       break;
     }
     case 'pong':
       if (typeof message.tick_ms === 'number') state.tick_ms = message.tick_ms;
       break;
     case 'players':
-      state.players = message.players.map((p) => ({ id: p.id, name: p.name ?? null }));
+      state.players = message.players.map((p) => ({ id: p.id, name: p.name ?? null, away: p.away === true }));
       hud.set_players(state.players, state.me);
+      show_scoreboard();
       break;
     case 'player':
       state.players = state.players.filter((p) => p.id !== message.id);
       if (message.change !== 'left') {
-        state.players.push({ id: message.id, name: message.name ?? null });
+        state.players.push({ id: message.id, name: message.name ?? null, away: message.change === 'away' });
         state.players.sort((a, b) => a.id - b.id);
       }
       hud.set_players(state.players, state.me);
+      show_scoreboard();
       break;
     default:
       break; // later protocol versions may add messages: ignored
@@ -156,6 +222,10 @@ function playback_clock(message) {
 function on_welcome(message) {
   state.welcomes++;
   state.me = message.client;
+  if (game) {
+    game.on_welcome(message);
+    show_scoreboard();
+  }
   state.snapshots = message.snapshots ?? null;
   state.room_snapshot_rate = message.snapshot_rate;
   state.tick_rate = message.tick_rate;
@@ -175,7 +245,7 @@ function on_welcome(message) {
   state.tick_ms = null; // until this server's pong says, in case it never does
   buffer.clear();
   clock = playback_clock(message);
-  view.set_scene(message.scene, { frame_camera: !same_scene });
+  view.set_scene(message.scene, { frame_camera: !same_scene, view: game ? game_camera : undefined });
   hud.set_scene(message.scene.name);
 }
 
@@ -186,6 +256,7 @@ function on_snapshot(message, snapshot) {
   if (snapshot.form === 'key') state.keyframes++;
   if (snapshot.form === 'delta') state.deltas++;
   state.paused = snapshot.paused;
+  game?.on_snapshot(snapshot);
   if (!buffer.push(snapshot)) return;
   clock?.on_snapshot(snapshot.time, now);
   snapshot_arrivals.push(now);
@@ -211,6 +282,7 @@ function connect(room) {
       hud.set_connection(s, detail);
     },
     on_attempt_failed: () => check_room(opened, room),
+    hello: (first_on_socket) => (game ? game.hello_fields(first_on_socket, room) : { name: 'kugel page' }),
     on_refused: (why, message) => {
       remember(state.refused, { tick: message.tick ?? null, form: message.form ?? 'full', why });
       console.warn(`kugel: snapshot ${message.tick} refused: ${why}`);
@@ -268,7 +340,8 @@ function animate(now_ms) {
     const frame = buffer.sample(t);
     if (colours.length < 3 * frame.count) colours = new Float32Array(2 * 3 * frame.count);
     const mode = colour_mode.value;
-    colour_bodies(frame, mode, mode === 'charge' ? charge_scale || 1 : speed_scale.max, colours);
+    if (game) colour_by_owner(frame, game.owners, colours);
+    else colour_bodies(frame, mode, mode === 'charge' ? charge_scale || 1 : speed_scale.max, colours);
     view.set_bodies(frame, colours);
     input.update_arrow();
     state.frames++;
@@ -310,6 +383,23 @@ window.kugel = {
       position: Array.from(s.position.subarray(3 * i, 3 * i + 3)),
       velocity: Array.from(s.velocity.subarray(3 * i, 3 * i + 3)),
       radius: s.radius[i],
+    };
+  },
+  /**
+   * The game mode's state, or null without `?game`: this player, its ball, every score this
+   * tab counted, the scoreboard as shown, and the last goals.
+   */
+  game() {
+    if (!game) return null;
+    return {
+      me: game.me,
+      name: game.name,
+      ready: game.ready,
+      ball: game.ball,
+      failed: game.failed,
+      scores: Object.fromEntries(game.scores),
+      scoreboard: game.scoreboard(state.players),
+      goals: game.goals.slice(),
     };
   },
   /** How many spheres the last frame drew. */

@@ -67,8 +67,11 @@ export class SceneView {
     this.camera.updateProjectionMatrix();
   }
 
-  /** Draws a scene's static geometry (welcome.scene) and frames the camera on its bounds. */
-  set_scene(scene, { frame_camera = true } = {}) {
+  /**
+   * Draws a scene's static geometry (welcome.scene) and frames the camera on its bounds,
+   * from `view` {azimuth, elevation} (degrees) when given.
+   */
+  set_scene(scene, { frame_camera = true, view = undefined } = {}) {
     for (const child of [...this.static_group.children]) {
       this.static_group.remove(child);
       child.geometry?.dispose();
@@ -82,7 +85,7 @@ export class SceneView {
     const floor = floor_index(scene.walls);
     scene.walls.forEach((wall, i) => this.add_wall(scene.walls, i, i === floor, centre, radius));
     for (const obstacle of scene.obstacles) this.add_obstacle(obstacle);
-    if (frame_camera) this.frame_camera(centre, radius);
+    if (frame_camera) this.frame_camera(centre, radius, view);
   }
 
   add_wall(walls, index, is_floor, centre, radius) {
@@ -144,18 +147,17 @@ export class SceneView {
     this.static_group.add(edges);
   }
 
-  /** Puts the camera where the whole bounding sphere fits in view, a little from above. */
-  frame_camera(centre, radius) {
+  /**
+   * Puts the camera where the whole bounding sphere fits in view: by default a little from
+   * above, looking along +y and a little +x.
+   */
+  frame_camera(centre, radius, { azimuth = -62, elevation = 30 } = {}) {
     const fov = THREE.MathUtils.degToRad(this.camera.fov);
     const fit = Math.min(fov, 2 * Math.atan(Math.tan(fov / 2) * this.camera.aspect)); // the narrower angle
     const distance = (1.05 * radius) / Math.sin(fit / 2);
-    const azimuth = THREE.MathUtils.degToRad(-62);
-    const elevation = THREE.MathUtils.degToRad(30);
-    const direction = new THREE.Vector3(
-      Math.cos(elevation) * Math.cos(azimuth),
-      Math.cos(elevation) * Math.sin(azimuth),
-      Math.sin(elevation),
-    );
+    const a = THREE.MathUtils.degToRad(azimuth);
+    const e = THREE.MathUtils.degToRad(elevation);
+    const direction = new THREE.Vector3(Math.cos(e) * Math.cos(a), Math.cos(e) * Math.sin(a), Math.sin(e));
     this.controls.target.set(...centre);
     this.camera.position.copy(this.controls.target).addScaledVector(direction, distance);
     this.camera.near = distance / 200;
@@ -272,6 +274,17 @@ export class SceneView {
     const normal = this.camera.getWorldDirection(new THREE.Vector3());
     const plane = new THREE.Plane().setFromNormalAndCoplanarPoint(normal, through);
     return this.ray_at(client_x, client_y).ray.intersectPlane(plane, new THREE.Vector3());
+  }
+
+  /** The point where the ray through a screen point meets the horizontal plane at height z, or null. */
+  point_on_level(client_x, client_y, z) {
+    const plane = new THREE.Plane(new THREE.Vector3(0, 0, 1), -z);
+    return this.ray_at(client_x, client_y).ray.intersectPlane(plane, new THREE.Vector3());
+  }
+
+  /** The camera's viewing direction, [x, y, z]. */
+  forward() {
+    return this.camera.getWorldDirection(new THREE.Vector3()).toArray();
   }
 
   /** Where a world point appears, in CSS pixels of the page. */

@@ -234,6 +234,43 @@ test('a page whose frames wait to be parsed asks for half the rate, and not agai
   }
 });
 
+test('a page\'s own hello fields: all of them on a socket\'s first hello, only the lasting ones later', () => {
+  const asked = [];
+  const hello = (first_on_socket, welcome) => {
+    asked.push([first_on_socket, welcome.client]);
+    return first_on_socket ? { name: 'ann', events: true, resume: 'token' } : { name: 'ann' };
+  };
+  const posted = [];
+  globalThis.Worker = class {
+    postMessage(data) {
+      posted.push(data);
+    }
+    terminate() {}
+  };
+  let now = 100;
+  const real_performance = globalThis.performance;
+  globalThis.performance = { now: () => now * 1000 };
+  const { connection, socket } = open_connection({ worker_url: 'parse_worker.js', hello });
+  try {
+    connection.receive({ message: { ...welcome, client: 9 } });
+    const hellos = () => socket().sent.filter((m) => m.type === 'hello');
+    assert.deepEqual(hellos(), [{ type: 'hello', protocol: 1, name: 'ann', events: true, resume: 'token', snapshots: { form: 'compact', rate: 30 } }]);
+    // The resume's answer (a welcome for the player resumed), then the snapshots' answer.
+    connection.receive({ message: { ...welcome, client: 3 } });
+    connection.receive({ message: { ...welcome, client: 3, snapshots: { form: 'compact', rate: 30 } } });
+    assert.equal(hellos().length, 1);
+    // Falling behind: the hello asking for less names the player again, and asks nothing once-only.
+    for (let i = 0; i < 16; i++) socket().onmessage({ data: '{}' });
+    mock.timers.tick(2000);
+    assert.deepEqual(hellos()[1], { type: 'hello', protocol: 1, name: 'ann', snapshots: { form: 'compact', rate: 15 } });
+    assert.deepEqual(asked, [[true, 9], [false, 3]]);
+  } finally {
+    close_connection(connection);
+    delete globalThis.Worker;
+    globalThis.performance = real_performance;
+  }
+});
+
 test('bytes per second: what was read since the reading about a second ago', () => {
   const rate = new ByteRate();
   assert.equal(rate.per_second(10.0), null, 'no reading a second old yet');

@@ -55,6 +55,7 @@ const scene_files = {
   resting: join(web, 'tests', 'resting.json'),
   arena: join(web, '..', 'scenes', 'arena.json'),
   open: join(web, 'tests', 'open.json'), // no walls: nothing for a click to land on
+  game: join(web, '..', 'scenes', 'game.json'), // the game mode's pitch
 };
 
 /** Starts kugel-server with rooms (room name -> scene file); resolves once it logs its port. */
@@ -99,17 +100,22 @@ process.on('exit', () => server?.process.kill('SIGKILL'));
  * truthy value, which it returns; after `seconds` fails naming what was missing and
  * showing the page's state.
  */
-async function wait_for(what, condition, arg, seconds = wait_seconds) {
+function wait_for(what, condition, arg, seconds = wait_seconds) {
+  return wait_on(page, page_problems, what, condition, arg, seconds);
+}
+
+/** wait_for on another page than the test's main one; `problems` are that page's. */
+async function wait_on(on, problems, what, condition, arg, seconds = wait_seconds) {
   const deadline = Date.now() + seconds * 1000;
   for (;;) {
-    const value = await page.evaluate(({ source, arg }) => {
+    const value = await on.evaluate(({ source, arg }) => {
       const f = new Function('kugel', 'arg', `return (${source})(kugel, arg);`);
       return window.kugel ? f(window.kugel, arg) : null;
     }, { source: condition.toString(), arg });
     if (value) return value;
     if (Date.now() > deadline) {
-      const state = await page.evaluate(() => window.kugel?.state ?? 'window.kugel is not defined');
-      throw new Error(`timed out after ${seconds} s waiting for ${what}\npage state: ${JSON.stringify(state)}\npage problems: ${JSON.stringify(page_problems)}`);
+      const state = await on.evaluate(() => (window.kugel ? { ...window.kugel.state, game: window.kugel.game() } : 'window.kugel is not defined'));
+      throw new Error(`timed out after ${seconds} s waiting for ${what}\npage state: ${JSON.stringify(state)}\npage problems: ${JSON.stringify(problems)}`);
     }
     await new Promise((r) => setTimeout(r, 100));
   }
@@ -473,6 +479,121 @@ test('a click on open space in a scene without walls spawns a sphere as far away
   assert.ok(off < 0.01, `spawned at ${body.position}, ${off} m from the scene's centre ${bounds.centre}`);
   await wait_for(`the body count to rise from ${bodies}`, (kugel, n) => kugel.state.bodies === n + 1, bodies);
   await screenshot('open-space');
+});
+
+/** The scoreboard a page shows: each row's name, score and colour, top to bottom. */
+function scoreboard_of(on) {
+  return on.evaluate(() =>
+    [...document.querySelectorAll('#scoreboard li')].map((li) => ({
+      name: li.querySelector('.name').textContent,
+      score: li.querySelector('.score').textContent,
+      colour: li.querySelector('.swatch').style.backgroundColor,
+    })),
+  );
+}
+
+test('the game: two pages play at once, each pushes its own ball into the goal with the mouse, and each shows both scores', async () => {
+  // A server of its own, with the game's room: the pages are its first two players. The
+  // test's main page waits on a blank page meanwhile, so that three pages drawing in
+  // software do not share two cores.
+  await page.goto('about:blank');
+  const game_server = await start_server(0, { game: scene_files.game });
+  const players = [];
+  try {
+    for (const name of ['ann', 'bob']) {
+      const player_page = await browser.newPage({ viewport: { width: 800, height: 600 } });
+      const problems = [];
+      player_page.on('pageerror', (error) => problems.push(`uncaught: ${error.message}`));
+      player_page.on('console', (message) => {
+        if (message.type() === 'error') problems.push(`console: ${message.text()}`);
+      });
+      players.push({ name, page: player_page, problems });
+    }
+    const [ann, bob] = players;
+    await Promise.all(players.map((p) => p.page.goto(`http://127.0.0.1:${game_server.port}/?room=game&game&name=${p.name}`)));
+    // Each page names itself, spawns its ball, and lists both players.
+    for (const p of players) {
+      p.me = (await wait_on(p.page, p.problems, `${p.name}'s ball in its page's snapshots and both players named`, (kugel) => {
+        const game = kugel.game();
+        const named = game.scoreboard.map((row) => row.name).sort().join();
+        return game.ball !== null && kugel.body(game.ball) && named === 'ann,bob' && game;
+      })).me;
+    }
+    assert.notEqual(ann.me, bob.me);
+    for (const p of players) {
+      // Nobody scored yet: both at 0, on both pages.
+      const rows = await scoreboard_of(p.page);
+      assert.deepEqual(rows.map((row) => [row.name, row.score]).sort(), [['ann', '0'], ['bob', '0']].map(([n, s]) => [n === p.name ? `${n} (you)` : n, s]).sort());
+    }
+
+    for (const p of players) {
+      // The ball at rest on its start spot, drawn where the pointer can take it.
+      const aim = await wait_on(p.page, p.problems, `${p.name}'s ball at rest on its spot, under the pointer`, (kugel) => {
+        const { ball } = kugel.game();
+        const body = ball === null ? null : kugel.body(ball);
+        if (!body || body.velocity.some((v) => v !== 0) || body.position[0] > -4) return null;
+        const point = kugel.screen_of(...body.position);
+        const on_canvas = document.elementFromPoint(point.x, point.y)?.id === 'view'; // no panel over it
+        return on_canvas && kugel.body_at(point.x, point.y) === ball ? { ball, x: point.x, y: point.y, at: body.position } : null;
+      });
+      const goal = await p.page.evaluate(() => window.kugel.screen_of(7.25, 0, 0));
+      const impulses = (await p.page.evaluate(() => window.kugel.state.acks.filter((a) => a.command === 'impulse').length));
+      // A drag from the ball to the middle of the goal: a push along the ground towards it.
+      await p.page.mouse.move(aim.x, aim.y);
+      await p.page.mouse.down();
+      await p.page.mouse.move(goal.x, goal.y, { steps: 8 });
+      await p.page.mouse.up();
+      await wait_on(p.page, p.problems, `the ack of ${p.name}'s push`, (kugel, n) => kugel.state.acks.filter((a) => a.command === 'impulse').length > n, impulses);
+      // Both pages see the goal, and give it to this page's player.
+      for (const q of players) {
+        await wait_on(q.page, q.problems, `${p.name}'s goal on ${q.name}'s page`, (kugel, id) => kugel.game().scores[id] === 1, p.me);
+      }
+      // Its page put the ball back on its spot: at rest, out of the other ball's way.
+      await wait_on(p.page, p.problems, `${p.name}'s ball back on its spot after the goal`, (kugel, ball) => {
+        const body = kugel.body(ball);
+        return body && body.velocity.every((v) => v === 0) && body.position[0] < -4;
+      }, aim.ball);
+      await p.page.screenshot({ path: join(options.screenshots, `game-${p.name}-scored.png`) });
+    }
+
+    // Each page shows its own score and the other's, by name, in the same colours.
+    const boards = await Promise.all(players.map((p) => scoreboard_of(p.page)));
+    for (const [i, p] of players.entries()) {
+      const rows = boards[i];
+      const own = rows.find((row) => row.name === `${p.name} (you)`);
+      const other = rows.find((row) => row.name === players[1 - i].name);
+      assert.ok(own && other, `${p.name}'s page shows ${JSON.stringify(rows)}`);
+      assert.equal(own.score, '1', `${p.name}'s own score on its page`);
+      assert.equal(other.score, '1', `${players[1 - i].name}'s score on ${p.name}'s page`);
+      assert.equal(rows.length, 2);
+    }
+    const colour = (rows, name) => rows.find((row) => row.name.startsWith(name)).colour;
+    assert.equal(colour(boards[0], 'ann'), colour(boards[1], 'ann'), 'ann in one colour on both pages');
+    assert.equal(colour(boards[0], 'bob'), colour(boards[1], 'bob'), 'bob in one colour on both pages');
+    assert.notEqual(colour(boards[0], 'ann'), colour(boards[0], 'bob'));
+    // The keys: up pushes the ball towards the goal (the camera looks from behind the start
+    // spots), space stops it again.
+    const { ball } = await ann.page.evaluate(() => window.kugel.game());
+    await ann.page.keyboard.press('ArrowUp');
+    const pushed = await wait_on(ann.page, ann.problems, 'ann\'s ball moving towards the goal after ArrowUp', (kugel, id) => {
+      const body = kugel.body(id);
+      return body && body.velocity[0] > 1 && body.velocity;
+    }, ball);
+    assert.ok(Math.abs(pushed[1]) < 1e-6 && pushed[2] === 0, `ArrowUp pushed along +x, the ball moves at ${pushed}`);
+    await ann.page.keyboard.press(' ');
+    await wait_on(ann.page, ann.problems, 'ann\'s ball at rest after space', (kugel, id) => {
+      const body = kugel.body(id);
+      return body && Math.hypot(...body.velocity) < 0.05;
+    }, ball);
+    for (const p of players) {
+      const final = await p.page.evaluate(() => window.kugel.game());
+      assert.deepEqual(final.scores, { [ann.me]: 1, [bob.me]: 1 }, `${p.name}'s page counted ${JSON.stringify(final.goals)}`);
+      assert.deepEqual(p.problems, [], `${p.name}'s page`);
+    }
+  } finally {
+    for (const p of players) await p.page.close();
+    await stop_server(game_server);
+  }
 });
 
 /** The bytes/s the HUD shows, as a number. */
