@@ -102,6 +102,9 @@ private:
     void do_read();
     void read_if_room();
     void on_read(beast::error_code ec, std::size_t bytes);
+    /// Reads away the rest of a message over the limit (`drained` bytes of it so far), then
+    /// closes with 1009.
+    void drain_oversized(std::size_t drained);
     void handle_message(std::string_view text);
     void handle_admin_token(std::string_view token);
     void handle_resume(std::string token);
