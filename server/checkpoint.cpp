@@ -151,6 +151,13 @@ std::string encode_checkpoint(checkpoint const& c)
           {"radius", std::move(radius)},
           {"charge", std::move(charge)},
           {"static", std::move(is_static)}}}};
+    // The tags only when some body has one, as snapshots carry them.
+    if (std::any_of(c.bodies.begin(), c.bodies.end(), [](checkpoint::body const& b) { return !b.tag.empty(); })) {
+        json tag = json::array();
+        for (checkpoint::body const& b : c.bodies)
+            tag.push_back(b.tag);
+        document["bodies"]["tag"] = std::move(tag);
+    }
     if (!c.scene_overrides.empty())
         document["scene"]["overrides"] = c.scene_overrides;
     if (c.loaded_scene)
@@ -175,9 +182,10 @@ checkpoint decode_checkpoint(std::string_view text, std::string const& file)
     if (!document.contains("format") || !document["format"].is_string() ||
         document["format"].get<std::string>() != format_name)
         refuse(file, "/format", fmt::format("must be \"{}\": not a Kugel checkpoint", format_name));
-    // Version 1 is version 2 without loaded_scene: read as it always was.
+    // Version 1 is version 2 without loaded_scene, and 2 is 3 without tags: read as they
+    // always were.
     json const& version = field(document, "version", file, "");
-    if (version != 1 && version != checkpoint_format_version)
+    if (version != 1 && version != 2 && version != checkpoint_format_version)
         refuse(file, "/version",
                fmt::format("format version {} is not a version this server reads (1 to {})",
                            version.dump(), checkpoint_format_version));
@@ -221,6 +229,7 @@ checkpoint decode_checkpoint(std::string_view text, std::string const& file)
     json const& radius = column(bodies, "radius", n, file);
     json const& charge = column(bodies, "charge", n, file);
     json const& is_static = column(bodies, "static", n, file);
+    json const* tag = version == checkpoint_format_version && bodies.contains("tag") ? &column(bodies, "tag", n, file) : nullptr;
     std::set<std::uint64_t> seen;
     c.bodies.resize(n);
     for (std::size_t i = 0; i < n; ++i) {
@@ -244,6 +253,19 @@ checkpoint decode_checkpoint(std::string_view text, std::string const& file)
         if (!is_static[i].is_boolean())
             refuse(file, fmt::format("/bodies/static/{}", i), "must be true or false");
         b.desc.is_static = is_static[i].get<bool>();
+        if (tag) {
+            json const& t = (*tag)[i];
+            bool const control = t.is_string() && std::any_of(t.get_ref<std::string const&>().begin(),
+                                                               t.get_ref<std::string const&>().end(), [](char ch) {
+                                                                   auto const u = static_cast<unsigned char>(ch);
+                                                                   return u < 0x20 || u == 0x7f;
+                                                               });
+            if (!t.is_string() || t.get_ref<std::string const&>().size() > scene::max_tag_bytes || control)
+                refuse(file, fmt::format("/bodies/tag/{}", i),
+                       fmt::format("must be \"\" or a tag of 1 to {} bytes without control characters, got {}",
+                                   scene::max_tag_bytes, t.dump()));
+            b.tag = t.get<std::string>();
+        }
         // The rest (finite values, positive masses) the world checks as it adds the body.
     }
     return c;

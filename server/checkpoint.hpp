@@ -29,8 +29,10 @@ public:
 
 /// Bumped whenever the file's meaning changes; another version is refused, never guessed at.
 /// Version 2 added `loaded_scene`: a server that knew only version 1 would put its bodies in
-/// the room's own scene. Version 1 files (none carries a loaded scene) are still read.
-inline constexpr int checkpoint_format_version = 2;
+/// the room's own scene. Version 3 added the bodies' tags (`bodies.tag`): a server that knew
+/// only version 2 would drop them, and the contacts and events that follow from them. Older
+/// versions (no loaded scene in 1, no tags in 1 and 2) are still read.
+inline constexpr int checkpoint_format_version = 3;
 
 /// A scene an admin loaded (load_scene), carried whole: a restart rebuilds the room in it.
 struct embedded_scene
@@ -62,6 +64,7 @@ struct checkpoint
     {
         std::uint64_t wire_id = 0;
         physics::body_desc desc;
+        std::string tag; ///< "" for none
     };
     std::vector<body> bodies; ///< in slot order, so stepping on gives the same results
 };

@@ -126,6 +126,9 @@ room::room(net::io_context& ticks, net::any_io_executor background, std::string 
     if (restored) {
         next_wire_id_ = restored->next_wire_id;
         counters_.ticks = restored->tick;
+        for (std::size_t slot = 0; slot < ids.size(); ++slot)
+            if (!restored->bodies[slot].tag.empty())
+                tag_body(restored->bodies[slot].wire_id, ids[slot], restored->bodies[slot].tag, scene_);
     } else {
         tag_scene_bodies(scene_);
     }
@@ -167,8 +170,11 @@ checkpoint room::take_checkpoint() const
     c.steps = world_.steps();
     c.next_wire_id = next_wire_id_;
     c.bodies.reserve(bodies.size());
-    for (std::size_t slot = 0; slot < bodies.size(); ++slot)
-        c.bodies.push_back({wire_id_of_index_[bodies.ids()[slot].index], bodies.describe(slot)});
+    for (std::size_t slot = 0; slot < bodies.size(); ++slot) {
+        std::uint64_t const wire_id = wire_id_of_index_[bodies.ids()[slot].index];
+        auto const tag = tag_of_wire_id_.find(wire_id);
+        c.bodies.push_back({wire_id, bodies.describe(slot), tag != tag_of_wire_id_.end() ? tag->second : std::string()});
+    }
     return c;
 }
 

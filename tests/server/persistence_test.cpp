@@ -16,6 +16,7 @@
 #include <gtest/gtest.h>
 #include <nlohmann/json.hpp>
 
+#include <cmath>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -268,6 +269,15 @@ TEST(Persistence, ACorruptOrIncompatibleCheckpointIsRefusedAndLeftUntouched)
     bad_body["bodies"]["mass"][0] = -1.0;
     EXPECT_NE(refusal(dir, bad_body.dump()).find("/bodies (body 0"), std::string::npos);
 
+    json bad_tag = json::parse(good);
+    bad_tag["bodies"]["tag"] = json::array();
+    for (std::size_t i = 0; i < bad_tag["bodies"]["id"].size(); ++i)
+        bad_tag["bodies"]["tag"].push_back(i == 3 ? "po\nst" : "");
+    EXPECT_NE(refusal(dir, bad_tag.dump()).find("/bodies/tag/3: must be \"\" or a tag of 1 to 32 bytes"),
+              std::string::npos);
+    bad_tag["bodies"]["tag"].erase(0);
+    EXPECT_NE(refusal(dir, bad_tag.dump()).find("/bodies/tag: must be an array of 400 values"), std::string::npos);
+
     // More bodies than the server lets a room hold (400 in the arena's checkpoint): refused
     // at the start, as a spawn past the limit is refused.
     server_options small;
@@ -392,7 +402,7 @@ TEST(Persistence, ALoadedSceneIsCheckpointedAndARestartRunsItWithTheSameBodiesId
     fs::path const file = loaded_scene_checkpoint(dir, spawned);
     std::string const text = read_text(file);
     checkpoint const saved = decode_checkpoint(text, file.string());
-    EXPECT_EQ(json::parse(text).at("version"), 2);
+    EXPECT_EQ(json::parse(text).at("version"), checkpoint_format_version);
     EXPECT_EQ(saved.scene_name, "still"); // the room's own scene, still checked at a restart
     EXPECT_EQ(saved.scene_fingerprint, scene_fingerprint(read_text(dir / "still.scene.json")));
     ASSERT_TRUE(saved.loaded_scene);
@@ -506,7 +516,60 @@ TEST(Persistence, AVersionOneCheckpointStillRestoresInTheRoomsOwnScene)
     EXPECT_GT(first.at("tick").get<std::uint64_t>(), saved.tick);
     EXPECT_EQ(ids_of(first), (std::vector<std::uint64_t>{1, spawned}));
     s.stop();
-    EXPECT_EQ(json::parse(read_text(file)).at("version"), 2); // written in the current version
+    EXPECT_EQ(json::parse(read_text(file)).at("version"), checkpoint_format_version); // written in the current version
+}
+
+// Tags are part of a body: a restart keeps them (snapshots show them), and with them the
+// contacts a scene's rule asks about. A ball tagged "ball" is spawned flying at a post tagged
+// "post" and the room stops before they meet; after the restart the checkpoint's tags are
+// the bodies' again, and the contact, under the rule ["ball", "post"], is reported.
+TEST(Persistence, TagsAndTheContactsTheyAskForSurviveARestart)
+{
+    fs::path const dir = fresh_dir("tags");
+    json const scene = {{"name", "posts"},
+                        {"dt", 1.0 / 64.0},
+                        {"integrator", "semi_implicit_euler"},
+                        {"collisions", {{"mode", "continuous"}}},
+                        {"box", {{"min", {-10, -10, -10}}, {"max", {10, 10, 10}}}},
+                        {"bodies", json::array({{{"position", {3, 0, 0}}, {"radius", 0.5}, {"mass", 0},
+                                                 {"static", true}, {"tag", "post"}}})},
+                        {"contacts", json::array({json::array({"ball", "post"})})}};
+    server_options o;
+    o.state_dir = dir;
+    o.checkpoint_interval = std::chrono::hours(1); // only the final one
+    o.rooms.push_back({"default", write_scene(dir, "posts", scene)});
+    std::uint64_t ball = 0;
+    {
+        test_support::in_process_server s(o);
+        ws_client c(s.port(), "/ws");
+        c.next("welcome");
+        json spawn = spawn_at(1, {-5, 0, 0}, {4, 0, 0}, 0.5);
+        spawn["body"]["tag"] = "ball";
+        c.send(spawn);
+        ball = ack_of(c, 1);
+        snapshot_at_or_after(c, 5); // 5/64 s of the 7/4 s the ball needs to reach the post
+        s.stop();
+    }
+    fs::path const file = checkpoint_path(dir, "default");
+    json const saved = json::parse(read_text(file));
+    EXPECT_EQ(saved.at("version"), checkpoint_format_version);
+    EXPECT_EQ(saved.at("bodies").at("tag"), json::array({"post", "ball"}));
+
+    test_support::in_process_server s(o);
+    ws_client c(s.port(), "/ws");
+    c.next("welcome");
+    c.send(json{{"type", "hello"}, {"events", {{"kinds", {"contact"}}}}});
+    json const first = c.next("snapshot");
+    EXPECT_EQ(first.at("bodies").at("id"), json::array({1, ball}));
+    EXPECT_EQ(first.at("bodies").at("tag"), json::array({"post", "ball"}));
+    json const contact = c.next("event");
+    EXPECT_EQ(contact.at("bodies"), json::array({1, ball}));
+    EXPECT_EQ(contact.at("tags"), json::array({"post", "ball"}));
+    // The centre reaches x = 2 after 7 m at 4 m/s from the start of its spawn's step, a whole
+    // number of 1/64 s steps: what the restart continued is the same straight path, so the
+    // time less 7/4 s is still a whole number of steps, to rounding (1e-9 s).
+    double const steps_before = (contact.at("time").get<double>() - 7.0 / 4.0) * 64.0;
+    EXPECT_NEAR(steps_before, std::round(steps_before), 64.0 * 1e-9);
 }
 
 TEST(Persistence, ATamperedLoadedSceneIsRefusedAndLeftUntouched)
