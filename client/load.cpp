@@ -210,6 +210,8 @@ void add(connection_stats& total, connection_stats const& s)
     total.late_snapshots += s.late_snapshots;
     total.ignored += s.ignored;
     total.undecodable += s.undecodable;
+    total.events += s.events;
+    total.events_missed += s.events_missed;
     for (auto const& [code, count] : s.errors)
         total.errors[code] += count;
     total.ack_latency.merge(s.ack_latency);
@@ -258,7 +260,9 @@ json stats_json(connection_stats const& s, double seconds)
             {"bytes_sent_per_second", per_second(s.bytes_sent, seconds)},
             {"errors", error_count(s)},
             {"errors_by_code", s.errors},
-            {"undecodable", s.undecodable}};
+            {"undecodable", s.undecodable},
+            {"events", s.events},
+            {"events_missed", s.events_missed}};
 }
 
 } // namespace
@@ -303,14 +307,16 @@ struct load_client
     std::size_t reconnects = 0;
 };
 
-connection_options load_connection_options(std::size_t number,
-                                           std::optional<protocol::snapshot_request> const& snapshots)
+connection_options load_connection_options(std::size_t number, load_options const& options)
 {
     connection_options o;
     o.name = "kugel-client load " + std::to_string(number);
-    o.players = false; // a thousand load clients told of each other's churn would measure that
+    // Unless asked: a thousand load clients told of each other's churn would measure that
+    o.players = options.players;
+    if (options.events)
+        o.events = protocol::event_request{}; // every event; counted, the oldest dropped unread
     o.snapshot_ticks_only = true; // counted on the I/O thread; nobody takes them
-    o.snapshots = snapshots;
+    o.snapshots = options.snapshots;
     o.kept_replies = 64;  // only spawn answers and the last command's are looked at, at once
     return o;
 }
@@ -344,7 +350,7 @@ load_report run_load(load_options options)
         auto& r = report.clients[i];
         r.number = i + 1;
         try {
-            clients[i].link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options.snapshots));
+            clients[i].link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options));
             r.client_id = clients[i].link->welcome().client;
             r.stats.opened = clients[i].link->stats().opened;
             r.connections = 1;
@@ -433,7 +439,7 @@ load_report run_load(load_options options)
         c.leaving_until.reset();
         ++c.reconnects;
         try {
-            c.link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options.snapshots));
+            c.link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options));
             r.client_id = c.link->welcome().client;
             ++r.connections;
             if (sending)
@@ -612,6 +618,11 @@ void print_report(load_report const& report, std::ostream& out)
         std::to_string(dropped) + " of " + std::to_string(connected));
     for (auto const& [code, count] : total.errors)
         print("errors %s: %llu\n", code.c_str(), static_cast<unsigned long long>(count));
+    if (o.events)
+        print("events: %llu received (%.2f/s per client), %llu dropped by the server\n",
+              static_cast<unsigned long long>(total.events),
+              connected > 0 ? per_second(total.events, report.seconds) / static_cast<double>(connected) : 0.0,
+              static_cast<unsigned long long>(total.events_missed));
     print("connections: %zu opened (%zu reconnects), %zu without a snapshot\n",
           report.connections(), report.connections() - connected, report.silent_connections());
     for (auto const& c : report.clients)
@@ -665,6 +676,8 @@ json report_json(load_report const& report)
             {"duration", report.options.duration},
             {"commands_per_second", report.options.commands_per_second},
             {"reconnects_per_second", report.options.reconnects_per_second},
+            {"players", report.options.players},
+            {"events", report.options.events},
             {"connections", report.connections()},
             {"silent_connections", report.silent_connections()},
             {"stalled", std::move(stalled)},

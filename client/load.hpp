@@ -32,6 +32,11 @@ struct load_options
     /// at the end each is read to see whether the server dropped it. Not in `clients`.
     std::size_t stalled = 0;
     std::uint64_t seed = 1;           ///< where spawns go and which way impulses push
+    /// Each client hears the player messages (players, player), as a game's players do; off,
+    /// each says in its hello that it wants none.
+    bool players = false;
+    /// Each client subscribes to every event (hello.events true), counted in its report.
+    bool events = false;
     /// What each client asks for in its hello: the compact form by default; nullopt asks
     /// for nothing (the full form at the room's rate).
     std::optional<protocol::snapshot_request> snapshots = protocol::snapshot_request{.form = "compact"};

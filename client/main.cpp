@@ -209,6 +209,10 @@ int main(int argc, char** argv)
         ->capture_default_str();
     load_command->add_option("--seed", load_opts.seed, "Seed for where spawns go and impulses push")
         ->capture_default_str();
+    load_command->add_flag("--players", load_opts.players,
+                           "Each client hears who joins and leaves, as a game's players do (off: each asks for none)");
+    load_command->add_flag("--events", load_opts.events,
+                           "Each client subscribes to every event (sensor crossings, contacts) and counts them");
     load_command->add_flag("--json", load_json, "Print the report as JSON");
     std::string snapshot_form = "compact";
     double snapshot_rate = 0.0;
