@@ -99,7 +99,7 @@ public:
             return fail_to_connect("WebSocket handshake with " + to_string(url_) +
                                    " failed: " + ec.message());
         if (!options_.name.empty() || options_.snapshots || !options_.players ||
-            options_.resume_token || options_.events) {
+            options_.resume_token || options_.events || options_.interest) {
             {
                 std::lock_guard lock(mutex_);
                 ++unsent_; // on_write counts every message down
@@ -115,6 +115,7 @@ public:
             if (!options_.players)
                 hello.players = false;
             hello.events = options_.events;
+            hello.interest = options_.interest;
             queue_write(std::make_shared<std::string const>(protocol::encode(hello)));
         }
         do_read();

@@ -25,10 +25,11 @@ namespace kugel::client {
 /// The admin commands are answered `forbidden` unless the connection's hello made it an admin.
 /// A `set` (a body's new position and/or velocity) is allowed by the room's push rule
 /// (welcome().permissions), as an impulse is; a spawn's body may carry a tag, and an admin's a
-/// `static` flag.
+/// `static` flag. An `interest` narrows the snapshots to a region and tags from the tick its ack
+/// names (one without region or tags clears it).
 using command = std::variant<protocol::spawn, protocol::impulse, protocol::remove, protocol::ping,
                              protocol::pause, protocol::resume, protocol::reset,
-                             protocol::load_scene, protocol::set>;
+                             protocol::load_scene, protocol::set, protocol::interest>;
 
 /// The server's answer to a command.
 using reply = std::variant<protocol::ack, protocol::error, protocol::pong>;
@@ -62,6 +63,11 @@ struct connection_options
     /// The sensor events to ask for in the hello (PROTOCOL.md, hello.events); nullopt asks
     /// for none. They are read with next_event.
     std::optional<protocol::event_request> events;
+    /// What of the world to be sent, stated in the hello (PROTOCOL.md, interest): the bodies
+    /// touching a box or a ball around a body, with one of some tags. nullopt asks for every
+    /// body. A refusal (an unknown body to follow) comes as an error without a ref
+    /// (next_unmatched_reply); the interest command changes it later.
+    std::optional<protocol::interest_filter> interest;
     /// Sensor events received and not yet taken; a full queue drops its oldest.
     std::size_t kept_events = 4096;
     /// How long connecting (resolve, TCP, upgrade) and the welcome may take.

@@ -228,7 +228,7 @@ step step_at(json const& value, std::size_t number)
         send_step send;
         send.message = object_at(body, inner);
         if (!send.message.contains("type") || !send.message["type"].is_string())
-            inner.fail("a message has a string \"type\" (spawn, impulse, set, remove, ping, hello, or an "
+            inner.fail("a message has a string \"type\" (spawn, impulse, set, remove, ping, interest, hello, or an "
                        "admin command: pause, resume, reset, load_scene)");
         if (send.message.contains("ref"))
             (inner / "ref")

@@ -276,6 +276,49 @@ constexpr auto fields(std::type_identity<event_filter>)
                       member("kinds", &event_filter::kinds, filter_list<event_kind>)};
 }
 
+/// An interest's tags: 1 to max_interest_tags of them, each a body tag.
+void interest_tags(std::vector<std::string> const& tags, location const& at)
+{
+    if (tags.empty())
+        at.fail(error_code::bad_value, "must hold at least one tag (leave the list out to match "
+                                       "bodies with any tag or none)");
+    if (tags.size() > max_interest_tags)
+        at.fail(error_code::bad_value, "must hold at most " + std::to_string(max_interest_tags) +
+                                           " tags, got " + std::to_string(tags.size()));
+    for (std::size_t i = 0; i < tags.size(); ++i)
+        body_tag(tags[i], at / i);
+}
+
+void interest_radius(double const& r, location const& at)
+{
+    if (!(r > 0.0 && r <= max_interest_radius))
+        at.fail(error_code::bad_value, "must be > 0 and at most " + format(max_interest_radius) +
+                                           " m, got " + format(r));
+}
+
+constexpr auto fields(std::type_identity<interest_box>)
+{
+    return std::tuple{member("min", &interest_box::min), member("max", &interest_box::max)};
+}
+
+constexpr auto fields(std::type_identity<interest_around>)
+{
+    return std::tuple{member("body", &interest_around::body),
+                      member("radius", &interest_around::radius, interest_radius)};
+}
+
+constexpr auto fields(std::type_identity<interest_filter>)
+{
+    return std::tuple{member("box", &interest_filter::box), member("around", &interest_filter::around),
+                      member("tags", &interest_filter::tags, interest_tags)};
+}
+
+constexpr auto fields(std::type_identity<interest>)
+{
+    return std::tuple{member("ref", &interest::ref), member("box", &interest::box),
+                      member("around", &interest::around), member("tags", &interest::tags, interest_tags)};
+}
+
 constexpr auto fields(std::type_identity<event>)
 {
     return std::tuple{member("tick", &event::tick), member("time", &event::time),
@@ -291,7 +334,7 @@ constexpr auto fields(std::type_identity<hello>)
                       member("name", &hello::name, player_name), member("admin_token", &hello::admin_token),
                       member("snapshots", &hello::snapshots), member("players", &hello::players),
                       member("resume", &hello::resume, resume_token_text),
-                      member("events", &hello::events)};
+                      member("events", &hello::events), member("interest", &hello::interest)};
 }
 
 constexpr auto fields(std::type_identity<body_spec>)
@@ -558,6 +601,26 @@ void check_together(set const& command, location const& at)
     if (command.velocity)
         below_light(*command.velocity, at / "velocity");
 }
+
+void check_together(interest_box const& box, location const& at)
+{
+    for (std::size_t k = 0; k < 3; ++k)
+        if (!(box.min[k] <= box.max[k]))
+            (at / "max" / k).fail(error_code::bad_value, "must be >= min[" + std::to_string(k) + "] = " +
+                                                          format(box.min[k]) + ", got " + format(box.max[k]));
+}
+
+/// One region at a time: a box, or a ball around a body.
+void one_region(interest_filter const& filter, location const& at)
+{
+    if (filter.box && filter.around)
+        (at / "around").fail(error_code::bad_value, "give one region, a box or a ball around a body, "
+                                                    "not both");
+}
+
+void check_together(interest_filter const& filter, location const& at) { one_region(filter, at); }
+
+void check_together(interest const& command, location const& at) { one_region(command.filter(), at); }
 
 void check_together(room_permissions const& p, location const& at)
 {
@@ -1300,6 +1363,10 @@ std::string encode(load_scene const& message)
     return encode_message(message);
 }
 std::string encode(set const& message)
+{
+    return encode_message(message);
+}
+std::string encode(interest const& message)
 {
     return encode_message(message);
 }

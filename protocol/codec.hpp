@@ -36,6 +36,7 @@ std::string encode(resume const& message);
 std::string encode(reset const& message);
 std::string encode(load_scene const& message);
 std::string encode(set const& message);
+std::string encode(interest const& message);
 std::string encode(client_message const& message);
 
 std::string encode(welcome const& message);

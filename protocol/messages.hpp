@@ -75,6 +75,47 @@ struct event_request
     bool operator==(event_request const&) const = default;
 };
 
+/// m: the largest radius of an `around` interest. Far beyond any world a room steps, and
+/// small enough that (radius + a body's radius)² stays a finite double.
+inline constexpr double max_interest_radius = 1e15;
+/// The most tags one interest may list.
+inline constexpr std::size_t max_interest_tags = 64;
+
+/// An axis-aligned box of an interest: the points with min <= x <= max on every axis.
+struct interest_box
+{
+    vec3 min{}; ///< m
+    vec3 max{}; ///< m, >= min on every axis
+
+    bool operator==(interest_box const&) const = default;
+};
+
+/// A ball of an interest around a body it follows: its centre is the body's, wherever the
+/// body moves; once the body is gone, where the room's last snapshot showed it.
+struct interest_around
+{
+    std::uint64_t body = 0; ///< the body's id, as in snapshots
+    double radius = 0.0;    ///< m, > 0 and <= max_interest_radius
+
+    bool operator==(interest_around const&) const = default;
+};
+
+/// What of the world a connection is sent (hello.interest, the interest command): the bodies
+/// that touch its region (a box, or a ball around a body) and carry one of its tags. A part
+/// left out matches every body; none given is no interest: every body, as at the start.
+/// At most one region.
+struct interest_filter
+{
+    std::optional<interest_box> box;
+    std::optional<interest_around> around;
+    /// 1 to max_interest_tags body tags; an untagged body matches none
+    std::optional<std::vector<std::string>> tags;
+
+    /// No part given: the connection is sent every body.
+    bool everything() const { return !box && !around && !tags; }
+    bool operator==(interest_filter const&) const = default;
+};
+
 /// The longest player name, in bytes of UTF-8.
 inline constexpr std::size_t max_player_name_bytes = 64;
 /// The longest hello.resume read, in bytes: a server's tokens are far shorter (kugel-server's
@@ -102,6 +143,10 @@ struct hello
     /// The sensor events this connection is sent (`event` messages); absent keeps what it
     /// was (a connection starts with none). Answered by nothing, or a bad_value error.
     std::optional<event_request> events;
+    /// What of the world this connection is sent, from the next tick on (the interest
+    /// command's region and tags); absent keeps it, `{}` clears it. Answered by nothing, or
+    /// an error.
+    std::optional<interest_filter> interest;
 
     bool operator==(hello const&) const = default;
 };
@@ -235,8 +280,23 @@ struct load_scene
     bool operator==(load_scene const&) const = default;
 };
 
+/// Narrow (or widen) what of the world this connection is sent, from the snapshot of the
+/// tick it is applied in: the bodies inside a region (`box` or `around`, not both) and with
+/// one of `tags`. None of the three clears the interest: every body again.
+struct interest
+{
+    static constexpr std::string_view type = "interest";
+    std::uint64_t ref = 0;
+    std::optional<interest_box> box;
+    std::optional<interest_around> around;
+    std::optional<std::vector<std::string>> tags;
+
+    interest_filter filter() const { return {box, around, tags}; }
+    bool operator==(interest const&) const = default;
+};
+
 using client_message =
-    std::variant<hello, spawn, impulse, remove, ping, pause, resume, reset, load_scene, set>;
+    std::variant<hello, spawn, impulse, remove, ping, pause, resume, reset, load_scene, set, interest>;
 
 // Server -> client --------------------------------------------------------------------------
 

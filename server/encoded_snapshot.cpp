@@ -7,10 +7,10 @@
 
 namespace kugel::server {
 
-encoded_snapshot::encoded_snapshot(std::uint64_t index, protocol::snapshot full,
+encoded_snapshot::encoded_snapshot(std::uint64_t index, std::uint64_t view, protocol::snapshot full,
                                    std::vector<protocol::body_owner> owners, protocol::quanta q,
                                    std::shared_ptr<snapshot_form_counters> encoded)
-    : index_(index), full_snapshot_(std::move(full)), owners_(std::move(owners)), quanta_(q),
+    : index_(index), view_(view), full_snapshot_(std::move(full)), owners_(std::move(owners)), quanta_(q),
       encoded_(std::move(encoded))
 {
 }
@@ -57,6 +57,17 @@ std::shared_ptr<std::string const> encoded_snapshot::delta_from(std::uint64_t ba
         if (d.base == base)
             return d.bytes;
     return nullptr;
+}
+
+std::shared_ptr<std::string const> encoded_snapshot::delta_after(encoded_snapshot const& previous) const
+{
+    return previous.view_ == view_ ? delta_from(previous.tick()) : nullptr;
+}
+
+void encoded_snapshot::count_encoded(snapshot_form form, std::size_t bytes) const
+{
+    if (encoded_)
+        encoded_->count(form, bytes);
 }
 
 void snapshot_chains::encode(encoded_snapshot& s, std::vector<std::uint64_t> const& every,

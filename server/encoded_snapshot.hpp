@@ -26,6 +26,10 @@ namespace kugel::server {
 /// A session picks the form at the moment it writes, never earlier: a delta only when the
 /// client holds the delta's base (the last compact snapshot it was sent), else the keyframe.
 /// So a client that skips snapshots never gets a delta it cannot apply. Thread-safe.
+///
+/// A snapshot is made for one view of the world (`view`): 0 holds every body, the others the
+/// bodies one interest holds (interest.hpp), each view with its own chains. Deltas go only
+/// between snapshots of one view: a client whose interest changed holds another view's state.
 class encoded_snapshot
 {
 public:
@@ -37,13 +41,16 @@ public:
 
     /// What the compact forms are made of: `owners` (sorted by id) name who spawned which
     /// body, `q` the quanta. Each form encoded is counted in `encoded` (when given).
-    encoded_snapshot(std::uint64_t index, protocol::snapshot full,
+    encoded_snapshot(std::uint64_t index, std::uint64_t view, protocol::snapshot full,
                      std::vector<protocol::body_owner> owners, protocol::quanta q,
                      std::shared_ptr<snapshot_form_counters> encoded = nullptr);
 
     /// The room's count of snapshots encoded before this one: a client that takes every
     /// n-th snapshot takes those whose index is a multiple of n.
     std::uint64_t index() const { return index_; }
+    /// The view of the world it shows: 0 every body; another number, the bodies of one
+    /// interest (never reused by the room for another).
+    std::uint64_t view() const { return view_; }
     std::uint64_t tick() const { return full_snapshot_.tick; }
 
     std::shared_ptr<std::string const> const& full() const;
@@ -54,9 +61,14 @@ public:
     void add_delta(delta_form d);
     /// A delta against `base`, if one was encoded; null otherwise.
     std::shared_ptr<std::string const> delta_from(std::uint64_t base) const;
+    /// The delta that follows `previous`, if one was encoded: a snapshot of the same view.
+    std::shared_ptr<std::string const> delta_after(encoded_snapshot const& previous) const;
+    /// Counts an encoding made for one session alone (a delta between two views).
+    void count_encoded(snapshot_form form, std::size_t bytes) const;
 
 private:
     std::uint64_t index_;
+    std::uint64_t view_;
     protocol::snapshot full_snapshot_;
     std::vector<protocol::body_owner> owners_;
     protocol::quanta quanta_;

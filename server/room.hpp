@@ -2,6 +2,7 @@
 
 #include "checkpoint.hpp"
 #include "encoded_snapshot.hpp"
+#include "interest.hpp"
 #include "metrics.hpp"
 #include "network.hpp"
 #include "options.hpp"
@@ -150,6 +151,10 @@ public:
     /// that match. A sensor name the room's scene does not have is answered bad_value, and the
     /// session keeps what it had.
     void subscribe_events(std::shared_ptr<websocket_session> session, protocol::event_request request);
+    /// The session's hello stated an interest: applied at the next tick, in arrival order with
+    /// its commands, as the interest command is; answered only when refused (an error without
+    /// a ref).
+    void set_interest(std::shared_ptr<websocket_session> session, protocol::interest_filter filter);
 
     /// The room's state now. Call it on the room's strand, or while nothing runs the room
     /// (before start, after the server's threads ended).
@@ -166,6 +171,7 @@ private:
         std::weak_ptr<websocket_session> from;
         protocol::client_message message;
         bool admin = false; ///< the sender is an admin
+        bool answered = true; ///< false: a hello's interest, answered only when refused
     };
     struct member;
 
@@ -179,6 +185,10 @@ private:
     void apply(protocol::resume const& resume, websocket_session& from, bool admin);
     void apply(protocol::reset const& reset, websocket_session& from, bool admin);
     void apply(protocol::load_scene const& load, websocket_session& from, bool admin);
+    /// The connection's interest from this tick's snapshot on; `ref` nothing: a hello's,
+    /// answered only when refused.
+    void apply_interest(protocol::interest_filter filter, websocket_session& from,
+                        std::optional<std::uint64_t> ref);
     /// Replaces the world by `s`'s, fresh: new wire ids for its bodies (the counter goes on),
     /// no spawned bodies, the clock going on from where it stood.
     void replace_world(scene::scene s);
@@ -208,8 +218,31 @@ private:
     /// The world now, as a snapshot's columns.
     protocol::snapshot copy_snapshot() const;
     /// Copies a snapshot for the sessions in the room and has it encoded and sent off the
-    /// room's strand (on `background`); none when nobody listens.
+    /// room's strand (on `background`), once for each view of it its sessions are sent (every
+    /// body, and each interest some session has); none when nobody listens.
     void send_snapshot();
+    /// One view of a snapshot and the sessions sent it.
+    struct snapshot_view
+    {
+        std::uint64_t id = 0; ///< 0: every body; else an interest's (view_of)
+        std::optional<resolved_interest> interest; ///< where it stands at this snapshot
+        bool any_full = false;            ///< a session of the full form is sent it
+        std::vector<std::uint64_t> every; ///< of its compact sessions, each once
+        std::vector<std::shared_ptr<websocket_session>> audience;
+    };
+    /// The view number of an interest: the same while some session has it, never reused.
+    std::uint64_t view_of(protocol::interest_filter const& interest);
+    /// The interest's region where it stands now: a followed body's place is noted, and a
+    /// followed body that is gone keeps its last.
+    resolved_interest resolve(protocol::interest_filter const& interest);
+    /// Forgets the views and followed places no session has any more.
+    void forget_unused_views(std::vector<snapshot_view> const& used);
+    /// Encodes one view of a snapshot on the encoder (its chains' deltas, the full form when
+    /// a full-form session is sent it); `bytes` grows by the full form's size.
+    std::shared_ptr<encoded_snapshot const> encode_view(std::uint64_t index, snapshot_view const& view,
+                                                        protocol::snapshot part,
+                                                        std::vector<protocol::body_owner> owners,
+                                                        protocol::quanta q, std::size_t& bytes);
     /// What one tick spent on each of its steps.
     struct tick_phases
     {
@@ -320,6 +353,8 @@ private:
         bool resumed = false;         ///< a resume made it the player it is (once a connection)
         /// Its hello.events: nothing, no events (the start); else the events it matches.
         std::optional<protocol::event_filter> events;
+        /// What of the world it is sent (normalized); nothing: every body (the start).
+        std::optional<protocol::interest_filter> interest;
     };
     /// Whether an event matches a member's subscription.
     static bool wants(protocol::event_filter const& filter, protocol::event const& e);
@@ -344,7 +379,14 @@ private:
     double snapshot_phase_ = 0.0; ///< snapshot_rate accumulated per tick, due at tick_rate
     std::uint64_t snapshot_index_ = 0; ///< snapshots handed to the encoder
     protocol::quanta quanta_;     ///< of the compact form, for the scene the room runs
-    snapshot_chains chains_;      ///< used by the encoder only, one snapshot at a time
+    /// Each view's chains, by view number: used by the encoder only, one snapshot at a time.
+    std::vector<std::pair<std::uint64_t, snapshot_chains>> chains_;
+    /// The view number of each interest some session has, and the next one to give.
+    std::vector<std::pair<protocol::interest_filter, std::uint64_t>> view_of_interest_;
+    std::uint64_t next_view_ = 1;
+    /// Where each body an interest follows was at the last snapshot (or when the interest was
+    /// set): a body that is gone is followed there.
+    std::unordered_map<std::uint64_t, protocol::vec3> followed_at_;
 
     room_counters counters_;
     traffic_counters traffic_;

@@ -249,6 +249,13 @@ void websocket_session::handle_message(std::string_view text)
                 return refuse_rate_limited(std::nullopt);
             room_->request_snapshots(shared_from_this(), *hello->snapshots);
         }
+        if (hello->interest) {
+            // Checked and applied at the next tick, answered only when refused; counted as a
+            // command, as the interest command is.
+            if (!take_command_token())
+                return refuse_rate_limited(std::nullopt);
+            room_->set_interest(shared_from_this(), *hello->interest);
+        }
         return;
     }
     if (!take_command_token())
@@ -469,8 +476,8 @@ void websocket_session::queue_snapshot(std::shared_ptr<encoded_snapshot const> s
         if (compact_ && pending_snapshots_.size() < most_pending_snapshots) {
             std::size_t bytes = 0;
             for (std::size_t k = 1; k < pending_snapshots_.size(); ++k)
-                bytes += pending_snapshots_[k]->delta_from(pending_snapshots_[k - 1]->tick())->size();
-            if (auto const follows = snapshot->delta_from(pending_snapshots_.back()->tick());
+                bytes += pending_snapshots_[k]->delta_after(*pending_snapshots_[k - 1])->size();
+            if (auto const follows = snapshot->delta_after(*pending_snapshots_.back());
                 follows && bytes + follows->size() <= most_pending_delta_bytes) {
                 pending_snapshots_.push_back(std::move(snapshot));
                 return write_next();
@@ -490,10 +497,21 @@ websocket_session::bytes_of(encoded_snapshot const& snapshot)
         return {snapshot.full(), snapshot_form::full};
     // A delta only against the state the client holds; otherwise (it just joined, or its
     // slot was replaced before the delta's base was written) the keyframe.
-    std::optional<std::uint64_t> const held = std::exchange(compact_held_, snapshot.tick());
-    if (held)
-        if (auto bytes = snapshot.delta_from(*held))
+    std::optional<held_state> const held =
+        std::exchange(compact_held_, held_state{snapshot.view(), snapshot.tick(), snapshot.compact()});
+    if (held && held->view == snapshot.view()) {
+        if (auto bytes = snapshot.delta_from(held->tick))
             return {std::move(bytes), snapshot_form::delta};
+    } else if (held) {
+        // Its interest changed: the bodies that left it vanish and those that came appear, as
+        // in any delta, in one encoded for this client alone (once per change), unless a
+        // keyframe is smaller.
+        if (auto const d = protocol::delta(*held->state, *snapshot.compact())) {
+            auto bytes = std::make_shared<std::string const>(protocol::encode(*d));
+            snapshot.count_encoded(snapshot_form::delta, bytes->size());
+            return {std::move(bytes), snapshot_form::delta};
+        }
+    }
     return {snapshot.keyframe(), snapshot_form::keyframe};
 }
 

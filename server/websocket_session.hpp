@@ -4,6 +4,7 @@
 #include "network.hpp"
 #include "options.hpp"
 
+#include "protocol/compact.hpp"
 #include "protocol/messages.hpp"
 
 
@@ -148,9 +149,15 @@ private:
     std::deque<std::shared_ptr<encoded_snapshot const>> pending_snapshots_;
     bool compact_ = false;          ///< the client asked for the compact form
     std::uint64_t every_ = 1;       ///< it takes the room's snapshots whose index is a multiple
-    /// The tick of the last compact snapshot written: the state the client holds, the only
-    /// base a delta it is sent may have.
-    std::optional<std::uint64_t> compact_held_;
+    /// The last compact snapshot written: the state the client holds, the only base a delta
+    /// it is sent may have.
+    struct held_state
+    {
+        std::uint64_t view = 0; ///< the view of the world it shows (encoded_snapshot::view)
+        std::uint64_t tick = 0;
+        std::shared_ptr<protocol::compact_state const> state;
+    };
+    std::optional<held_state> compact_held_;
     std::shared_ptr<std::string const> in_flight_;       ///< being written
     clock::time_point write_started_;
     /// Commands handed to the room and not answered yet: each gets exactly one answer.

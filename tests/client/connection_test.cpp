@@ -299,6 +299,46 @@ TEST(Connection, SendsSetAndTagsAndDecodesTheTags)
     EXPECT_EQ(std::get<protocol::error>(*refused).code, protocol::error_code::outside_world);
 }
 
+// An interest stated in the options narrows the snapshots from the hello on; the interest
+// command changes it, and one without region or tags clears it.
+TEST(Connection, AsksForAnInterestAndChangesItByCommand)
+{
+    running_server s;
+    connection spawner(s.url());
+    auto const id_of = [&](protocol::vec3 at) {
+        auto const ack = spawner.await_reply(spawner.send(ball_at(at)), 10s);
+        EXPECT_TRUE(ack && std::holds_alternative<protocol::ack>(*ack));
+        return ack ? std::get<protocol::ack>(*ack).id.value_or(0) : 0;
+    };
+    std::uint64_t const near = id_of({1, 1, 1});
+    std::uint64_t const far = id_of({5, 5, 5});
+    connection_options options;
+    options.interest = protocol::interest_filter{.box = protocol::interest_box{.min = {0, 0, 0}, .max = {2, 2, 2}}};
+    connection watcher(s.url(), options);
+    auto const has = [](protocol::snapshot const& x, std::uint64_t id) {
+        return std::find(x.bodies.id.begin(), x.bodies.id.end(), id) != x.bodies.id.end();
+    };
+    auto const narrowed = watcher.wait_for_snapshot(
+        [&](protocol::snapshot const& x) { return has(x, near) && !has(x, far); }, 120, 10s);
+    ASSERT_EQ(narrowed.outcome, wait_outcome::matched);
+    EXPECT_EQ(narrowed.snapshot->bodies.size(), 1U);
+
+    auto const moved = watcher.await_reply(
+        watcher.send(protocol::interest{.ref = 0, .box = protocol::interest_box{.min = {4, 4, 4}, .max = {6, 6, 6}}}), 10s);
+    ASSERT_TRUE(moved && std::holds_alternative<protocol::ack>(*moved));
+    auto const from = std::get<protocol::ack>(*moved).tick;
+    auto const elsewhere = watcher.wait_for_snapshot([&](protocol::snapshot const& x) { return x.tick >= from; }, 120, 10s);
+    ASSERT_EQ(elsewhere.outcome, wait_outcome::matched);
+    EXPECT_EQ(elsewhere.snapshot->bodies.id, std::vector<std::uint64_t>{far});
+
+    auto const cleared = watcher.await_reply(watcher.send(protocol::interest{}), 10s);
+    ASSERT_TRUE(cleared && std::holds_alternative<protocol::ack>(*cleared));
+    auto const all = watcher.wait_for_snapshot(
+        [&](protocol::snapshot const& x) { return x.tick >= std::get<protocol::ack>(*cleared).tick; }, 120, 10s);
+    ASSERT_EQ(all.outcome, wait_outcome::matched);
+    EXPECT_TRUE(has(*all.snapshot, near) && has(*all.snapshot, far));
+}
+
 TEST(Connection, WaitForSnapshotGivesUpAfterItsTicks)
 {
     running_server s;
