@@ -241,7 +241,7 @@ private:
     std::vector<std::vector<body_id>> inside_; ///< by sensor: the bodies in it, by id
     std::vector<sensor_event> sensor_events_;  ///< of the last step
     std::vector<vec3> sensor_x0_, sensor_v0_;  ///< each body at the substep's start
-    std::vector<body_id> still_inside_;        ///< scratch
+    std::vector<std::uint8_t> held_;           ///< scratch: by id index, some sensor held the body
     // Contact events, by body id index: whether the body is reported (cleared on removal)
     std::vector<std::uint8_t> reports_;
     std::size_t reporting_ = 0;                ///< bodies reported

@@ -67,6 +67,18 @@ void world::follow_sensors(double h, double start)
     std::vector<aabb> bounds;
     for (sensor const& s : sensors_)
         bounds.push_back(s.bounds());
+    // Most bodies are nowhere near a sensor: one box around them all, and a mark (by id
+    // index) on each body some sensor holds, let those pass with one test.
+    aabb all = bounds.front();
+    for (aabb const& b : bounds)
+        all = merged(all, b);
+    held_.clear();
+    for (auto const& in : inside_)
+        for (body_id const id : in) {
+            if (held_.size() <= id.index)
+                held_.resize(std::size_t{id.index} + 1, 0);
+            held_[id.index] = 1;
+        }
     for (std::size_t k = 0; k < x.size(); ++k) {
         body_id const id = ids[k];
         // the body's path in this substep: its pieces, or one path from its start
@@ -84,6 +96,8 @@ void world::follow_sensors(double h, double start)
             auto const& piece = ws.segments[order[p]];
             reach = merged(reach, piece.path.swept_box(piece.until, 0.0));
         }
+        if (!overlap(reach, all) && (id.index >= held_.size() || held_[id.index] == 0))
+            continue; // near no sensor, and in none
         for (std::uint32_t si = 0; si < sensors_.size(); ++si) {
             auto const& was = inside_[si];
             bool in = std::binary_search(was.begin(), was.end(), id, by_id);
