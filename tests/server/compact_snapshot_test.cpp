@@ -9,6 +9,7 @@
 #include "protocol/codec.hpp"
 #include "protocol/compact.hpp"
 #include "protocol/message_schemas.hpp"
+#include "support/same_snapshot.hpp"
 #include "support/in_process_server.hpp"
 #include "support/scene_files.hpp"
 #include "support/ws_client.hpp"
@@ -113,28 +114,6 @@ protocol::snapshot full_at_or_after(ws_client& ws, std::uint64_t tick)
     }
 }
 
-void expect_same_to_the_quantum(protocol::snapshot const& compact, protocol::snapshot const& full,
-                                protocol::quanta q)
-{
-    ASSERT_EQ(compact.tick, full.tick);
-    ASSERT_EQ(compact.bodies.size(), full.bodies.size());
-    std::map<std::uint64_t, std::size_t> slot;
-    for (std::size_t i = 0; i < compact.bodies.size(); ++i)
-        slot[compact.bodies.id[i]] = i;
-    for (std::size_t i = 0; i < full.bodies.size(); ++i) {
-        ASSERT_TRUE(slot.contains(full.bodies.id[i]));
-        std::size_t const j = slot[full.bodies.id[i]];
-        for (std::size_t k = 0; k < 3; ++k) {
-            EXPECT_LE(std::abs(compact.bodies.position[3 * j + k] - full.bodies.position[3 * i + k]),
-                      0.5 * q.position * (1 + 1e-9));
-            EXPECT_LE(std::abs(compact.bodies.velocity[3 * j + k] - full.bodies.velocity[3 * i + k]),
-                      0.5 * q.velocity * (1 + 1e-9));
-        }
-        EXPECT_EQ(compact.bodies.radius[j], full.bodies.radius[i]);
-        EXPECT_EQ((*compact.bodies.mass)[j], (*full.bodies.mass)[i]);
-    }
-}
-
 TEST(CompactSnapshots, TheDecodedStreamIsTheFullFormToTheQuantumThroughChurnStallsAndAReset)
 {
     test_support::in_process_server s(churn_options("kugel_compact_churn.json"));
@@ -178,7 +157,7 @@ TEST(CompactSnapshots, TheDecodedStreamIsTheFullFormToTheQuantumThroughChurnStal
             protocol::snapshot const mine = c.next_snapshot();
             protocol::snapshot const theirs = full_at_or_after(full, mine.tick);
             if (theirs.tick == mine.tick) // the full client may have skipped it
-                expect_same_to_the_quantum(mine, theirs, q);
+                test_support::expect_same_to_the_quantum(mine, theirs, q);
             if (HasFatalFailure())
                 return;
         }

@@ -12,6 +12,7 @@
 #include "protocol/codec.hpp"
 #include "protocol/compact.hpp"
 #include "protocol/message_schemas.hpp"
+#include "support/same_snapshot.hpp"
 #include "support/in_process_server.hpp"
 #include "support/scene_files.hpp"
 #include "support/ws_client.hpp"
@@ -226,12 +227,14 @@ struct client
         }
     }
 
-    /// The answer (ack or error) to `ref`, applying the snapshots that come before it.
-    json answer(std::uint64_t ref)
+    /// The first message other than a snapshot that `wanted` takes, applying the snapshots
+    /// that come before it; the others are kept for later.
+    template <class Wanted>
+    json first_answer(Wanted wanted)
     {
         for (;;) {
             for (auto it = answers.begin(); it != answers.end(); ++it)
-                if (it->value("ref", json()) == ref) {
+                if (wanted(*it)) {
                     json found = *it;
                     answers.erase(it);
                     return found;
@@ -244,22 +247,16 @@ struct client
         }
     }
 
-    /// The next error without a ref (a hello's refusal), applying snapshots on the way.
+    /// The answer (ack or error) to `ref`.
+    json answer(std::uint64_t ref)
+    {
+        return first_answer([&](json const& m) { return m.value("ref", json()) == ref; });
+    }
+
+    /// The next error without a ref (a hello's refusal).
     json refusal()
     {
-        for (;;) {
-            for (auto it = answers.begin(); it != answers.end(); ++it)
-                if (it->at("type") == "error" && !it->contains("ref")) {
-                    json found = *it;
-                    answers.erase(it);
-                    return found;
-                }
-            json message = read();
-            if (message.at("type") == "snapshot")
-                take(message);
-            else
-                answers.push_back(std::move(message));
-        }
+        return first_answer([](json const& m) { return m.at("type") == "error" && !m.contains("ref"); });
     }
 
     /// Sends a command and returns the tick of its ack.
@@ -275,29 +272,6 @@ struct client
     std::vector<json> answers;
 };
 
-/// Positions and velocities to the quantum, constants exactly: the compact view of a body
-/// is the full form's.
-void expect_same_bodies(protocol::snapshot const& mine, protocol::snapshot const& full, protocol::quanta q)
-{
-    std::map<std::uint64_t, std::size_t> slot;
-    for (std::size_t i = 0; i < full.bodies.size(); ++i)
-        slot[full.bodies.id[i]] = i;
-    for (std::size_t j = 0; j < mine.bodies.size(); ++j) {
-        ASSERT_TRUE(slot.contains(mine.bodies.id[j]));
-        std::size_t const i = slot[mine.bodies.id[j]];
-        for (std::size_t k = 0; k < 3; ++k) {
-            EXPECT_LE(std::abs(mine.bodies.position[3 * j + k] - full.bodies.position[3 * i + k]),
-                      0.5 * q.position * (1 + 1e-9));
-            EXPECT_LE(std::abs(mine.bodies.velocity[3 * j + k] - full.bodies.velocity[3 * i + k]),
-                      0.5 * q.velocity * (1 + 1e-9));
-        }
-        EXPECT_EQ(mine.bodies.radius[j], full.bodies.radius[i]);
-        EXPECT_EQ((*mine.bodies.mass)[j], (*full.bodies.mass)[i]);
-        std::string const my_tag = mine.bodies.tag ? (*mine.bodies.tag)[j] : "";
-        std::string const full_tag = full.bodies.tag ? (*full.bodies.tag)[i] : "";
-        EXPECT_EQ(my_tag, full_tag) << "body " << mine.bodies.id[j];
-    }
-}
 
 TEST(Interest, ABoxShowsTheBodiesTouchingItInTheFullForm)
 {
@@ -396,7 +370,7 @@ TEST(Interest, TheCompactStreamIsTheFullFormFilteredByTheSameInterestThroughChur
                 continue;
             ++compared;
             ASSERT_EQ(ids_of(mine), current.ids_in(all)) << "tick " << mine.tick;
-            expect_same_bodies(mine, all, watcher.held->q);
+            test_support::expect_bodies_of(mine, all, watcher.held->q);
             if (HasFatalFailure())
                 return;
         }
