@@ -476,8 +476,9 @@ TEST(Interest, ABallFollowsItsBodyAndStaysWhereItWentOut)
         if (all.tick != mine.tick)
             continue;
         ++compared;
-        auto const at = std::find(all.bodies.id.begin(), all.bodies.id.end(), runner) - all.bodies.id.begin();
-        ASSERT_LT(static_cast<std::size_t>(at), all.bodies.size());
+        auto const at = static_cast<std::size_t>(std::find(all.bodies.id.begin(), all.bodies.id.end(), runner) -
+                                                 all.bodies.id.begin());
+        ASSERT_LT(at, all.bodies.size());
         interest const ball{.centre = std::array{all.bodies.position[3 * at], all.bodies.position[3 * at + 1],
                                                  all.bodies.position[3 * at + 2]},
                             .radius = 1.5};
@@ -490,7 +491,9 @@ TEST(Interest, ABallFollowsItsBodyAndStaysWhereItWentOut)
     // Stopped, then removed: the ball stays where the runner stood.
     std::uint64_t const stopped = watcher.acked(json{{"type", "set"}, {"ref", 3}, {"id", runner}, {"velocity", {0, 0, 0}}});
     protocol::snapshot const last = everything.snapshot_at_or_after(stopped + 2);
-    auto const at = std::find(last.bodies.id.begin(), last.bodies.id.end(), runner) - last.bodies.id.begin();
+    auto const at = static_cast<std::size_t>(std::find(last.bodies.id.begin(), last.bodies.id.end(), runner) -
+                                             last.bodies.id.begin());
+    ASSERT_LT(at, last.bodies.size());
     interest const ball{.centre = std::array{last.bodies.position[3 * at], last.bodies.position[3 * at + 1],
                                              last.bodies.position[3 * at + 2]},
                         .radius = 1.5};
