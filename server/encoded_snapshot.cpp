@@ -59,6 +59,33 @@ std::shared_ptr<std::string const> encoded_snapshot::delta_from(std::uint64_t ba
     return nullptr;
 }
 
+void encoded_snapshot::force_keyframe(std::uint64_t every)
+{
+    forced_keyframes_.push_back(every);
+}
+
+std::shared_ptr<std::string const> encoded_snapshot::delta_for(protocol::compact_state const& held,
+                                                               std::uint64_t every) const
+{
+    if (auto bytes = delta_from(held.tick))
+        return bytes;
+    if (std::find(forced_keyframes_.begin(), forced_keyframes_.end(), every) != forced_keyframes_.end())
+        return nullptr;
+    std::lock_guard const lock(catch_up_mutex_);
+    for (delta_form const& d : catch_up_)
+        if (d.base == held.tick)
+            return d.bytes;
+    if (catch_up_.size() >= most_catch_up_bases)
+        return nullptr;
+    std::shared_ptr<std::string const> bytes;
+    if (auto const d = protocol::delta(held, *compact())) {
+        bytes = std::make_shared<std::string const>(protocol::encode(*d));
+        count_encoded(snapshot_form::delta, bytes->size());
+    }
+    catch_up_.push_back({held.tick, bytes});
+    return bytes;
+}
+
 std::shared_ptr<std::string const> encoded_snapshot::delta_after(encoded_snapshot const& previous) const
 {
     return previous.view_ == view_ ? delta_from(previous.tick()) : nullptr;
@@ -96,6 +123,8 @@ void snapshot_chains::encode(encoded_snapshot& s, std::vector<std::uint64_t> con
                     delta_sent = true;
                 }
         }
+        if (c.last && keyframe_due)
+            s.force_keyframe(c.every);
         c.since_keyframe = delta_sent ? c.since_keyframe + 1 : 0;
         c.last = now;
     }

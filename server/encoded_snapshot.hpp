@@ -23,8 +23,13 @@ namespace kugel::server {
 ///  - deltas: the compact bodies that changed since the room's previous snapshot of a chain
 ///    (chains_, by how many of the room's snapshots a client's rate skips), encoded by the
 ///    room's encoder in tick order.
-/// A session picks the form at the moment it writes, never earlier: a delta only when the
-/// client holds the delta's base (the last compact snapshot it was sent), else the keyframe.
+///  - catch-up deltas: for a client that skipped snapshots (slow, or its unsent one was
+///    replaced), the delta from the state it holds, encoded on first demand and shared by
+///    every client holding that same state (a few bases per snapshot at most): a client
+///    that falls a snapshot behind is not sent a keyframe many times a delta's size, which
+///    would put it further behind.
+/// A session picks the form at the moment it writes, never earlier: a delta only against
+/// the state the client holds (the last compact snapshot it was sent), else the keyframe.
 /// So a client that skips snapshots never gets a delta it cannot apply. Thread-safe.
 ///
 /// A snapshot is made for one view of the world (`view`): 0 holds every body, the others the
@@ -61,6 +66,14 @@ public:
     void add_delta(delta_form d);
     /// A delta against `base`, if one was encoded; null otherwise.
     std::shared_ptr<std::string const> delta_from(std::uint64_t base) const;
+    /// Set by the encoder: this snapshot is a forced keyframe of the chain of `every`.
+    void force_keyframe(std::uint64_t every);
+    /// The delta for a client of the chain of `every` that holds `held` (a state of this
+    /// view): the encoder's, or a catch-up delta. Null when the client is to get the
+    /// keyframe: its chain's keyframe is due, a keyframe serves better (protocol::delta),
+    /// or most_catch_up_bases other bases were asked for already.
+    std::shared_ptr<std::string const> delta_for(protocol::compact_state const& held,
+                                                 std::uint64_t every) const;
     /// The delta that follows `previous`, if one was encoded: a snapshot of the same view.
     std::shared_ptr<std::string const> delta_after(encoded_snapshot const& previous) const;
     /// Counts an encoding made for one session alone (a delta between two views).
@@ -74,6 +87,11 @@ private:
     protocol::quanta quanta_;
     std::shared_ptr<snapshot_form_counters> encoded_;
     std::vector<delta_form> deltas_;
+    std::vector<std::uint64_t> forced_keyframes_; ///< the chains (by `every`) it is a keyframe of
+    /// Catch-up deltas encoded so far, by base tick (null: a keyframe serves better).
+    static constexpr std::size_t most_catch_up_bases = 8;
+    mutable std::mutex catch_up_mutex_;
+    mutable std::vector<delta_form> catch_up_;
     mutable std::once_flag compact_once_;
     mutable std::shared_ptr<protocol::compact_state const> compact_;
     mutable std::once_flag full_once_;

@@ -495,12 +495,12 @@ websocket_session::bytes_of(encoded_snapshot const& snapshot)
 {
     if (!compact_)
         return {snapshot.full(), snapshot_form::full};
-    // A delta only against the state the client holds; otherwise (it just joined, or its
-    // slot was replaced before the delta's base was written) the keyframe.
+    // A delta only against the state the client holds (the encoder's, or a catch-up delta
+    // when it skipped snapshots); otherwise (it just joined, its keyframe is due) the keyframe.
     std::optional<held_state> const held =
         std::exchange(compact_held_, held_state{snapshot.view(), snapshot.tick(), snapshot.compact()});
     if (held && held->view == snapshot.view()) {
-        if (auto bytes = snapshot.delta_from(held->tick))
+        if (auto bytes = snapshot.delta_for(*held->state, every_))
             return {std::move(bytes), snapshot_form::delta};
     } else if (held) {
         // Its interest changed: the bodies that left it vanish and those that came appear, as

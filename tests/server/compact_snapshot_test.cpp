@@ -166,6 +166,46 @@ TEST(CompactSnapshots, TheDecodedStreamIsTheFullFormToTheQuantumThroughChurnStal
     EXPECT_GE(c.keys, 2) << "a keyframe at the start and after a stall or the reset";
 }
 
+// A client that stops reading for a while falls behind: the server replaces the snapshots
+// it has not sent, and the next it sends is the delta from the state the client holds (a
+// catch-up delta, shared by every client that holds that state), not a keyframe many times
+// a delta's size, which would only put it further behind.
+TEST(CompactSnapshots, AClientThatFellBehindCatchesUpWithADeltaFromTheStateItHolds)
+{
+    server_options o = churn_options("kugel_compact_catch_up.json");
+    o.keyframe_interval = 600.0; // none due in this test: a keyframe would be for falling behind
+    test_support::in_process_server s(o);
+    compact_client c(s.port(), {{"type", "hello"}, {"snapshots", {{"form", "compact"}}}});
+    c.ws.set_receive_buffer(4096);
+    protocol::quanta const q{c.welcome.at("snapshots").at("position_quantum").get<double>(),
+                             c.welcome.at("snapshots").at("velocity_quantum").get<double>()};
+    ws_client full(s.port(), "/ws/churn");
+    for (int n = 0; n < 5; ++n)
+        c.next_snapshot();
+    ASSERT_EQ(c.keys, 1);
+    for (int stall = 0; stall < 3; ++stall) {
+        std::this_thread::sleep_for(std::chrono::milliseconds(500));
+        // What the socket's buffers held, then the snapshot after the gap, then a few more.
+        int after_gap = -1;
+        for (int n = 0; n < 400 && after_gap < 5; ++n) {
+            protocol::snapshot const mine = c.next_snapshot();
+            if (after_gap >= 0 || c.ticks.back() - c.ticks[c.ticks.size() - 2] > 2)
+                ++after_gap;
+            protocol::snapshot const theirs = full_at_or_after(full, mine.tick);
+            if (theirs.tick == mine.tick)
+                test_support::expect_same_to_the_quantum(mine, theirs, q);
+            if (HasFatalFailure())
+                return;
+        }
+    }
+    // 200 ticks/s, 100 snapshots/s: 2 ticks apart unless the server skipped some.
+    std::size_t skips = 0;
+    for (std::size_t i = 1; i < c.ticks.size(); ++i)
+        skips += c.ticks[i] - c.ticks[i - 1] > 2 ? 1 : 0;
+    ASSERT_GE(skips, 3U) << "each stall made the server skip snapshots";
+    EXPECT_EQ(c.keys, 1) << "every stall was caught up by a delta";
+}
+
 TEST(CompactSnapshots, ALowerRateTakesEveryNthSnapshotAsDeltas)
 {
     test_support::in_process_server s(churn_options("kugel_compact_rate.json"));

@@ -38,6 +38,11 @@ ws_client::ws_client(std::uint16_t port, std::string const& target, std::string 
 
 ws_client::~ws_client() = default;
 
+void ws_client::set_receive_buffer(int bytes)
+{
+    c_->ws.next_layer().set_option(boost::asio::socket_base::receive_buffer_size(bytes));
+}
+
 void ws_client::send(std::string const& text) { c_->ws.write(boost::asio::buffer(text)); }
 
 void ws_client::send_binary(std::string const& bytes)

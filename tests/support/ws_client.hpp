@@ -31,6 +31,11 @@ public:
     ws_client(ws_client const&) = delete;
     ws_client& operator=(ws_client const&) = delete;
 
+    /// Sets the socket's receive buffer (SO_RCVBUF; the kernel doubles it, and no longer
+    /// grows it): a client that stops reading is then soon behind, whatever the machine's
+    /// defaults.
+    void set_receive_buffer(int bytes);
+
     void send(std::string const& text);
     void send(nlohmann::json const& message) { send(message.dump()); }
     /// A binary frame (the protocol speaks text only).
