@@ -5,6 +5,7 @@
 #include "url.hpp"
 
 #include <algorithm>
+#include <atomic>
 #include <charconv>
 #include <boost/asio/connect.hpp>
 #include <boost/asio/io_context.hpp>
@@ -412,6 +413,15 @@ public:
             end({0, "close failed: " + ec.message(), false});
     }
 
+    /// Ends whatever is still pending (a resolve, a connect, the stream) once the user has
+    /// let go of a connection on shared I/O threads, so that nothing holds it there.
+    void abandon()
+    {
+        resolver_.cancel();
+        if (!ended())
+            cut();
+    }
+
     /// Cuts the connection without a closing handshake (the server did not answer one).
     void cut()
     {
@@ -768,16 +778,57 @@ private:
     connection_stats stats_;
 };
 
-/// The I/O thread and its io_context, the session it runs, and the callback thread. Members
-/// are destroyed in reverse order: the threads are joined first (in ~state), then the
-/// session is released, then the io_context destroys the handlers still holding it.
+struct io_threads::pool
+{
+    std::vector<std::unique_ptr<net::io_context>> contexts; ///< one per thread: no strands needed
+    std::vector<net::executor_work_guard<net::io_context::executor_type>> work;
+    std::vector<std::thread> threads;
+    std::atomic<std::size_t> next{0};
+};
+
+io_threads::io_threads(std::size_t count) : pool_(std::make_unique<pool>())
+{
+    for (std::size_t k = 0; k < std::max<std::size_t>(count, 1); ++k) {
+        auto& io = *pool_->contexts.emplace_back(std::make_unique<net::io_context>(1));
+        pool_->work.push_back(net::make_work_guard(io));
+        pool_->threads.emplace_back([&io] { io.run(); });
+    }
+}
+
+io_threads::~io_threads()
+{
+    pool_->work.clear();
+    for (auto& io : pool_->contexts)
+        io->stop();
+    for (auto& t : pool_->threads)
+        t.join();
+}
+
+/// The session and the callback thread, and the I/O thread with its io_context when the
+/// connection has its own. Members are destroyed in reverse order: the threads are joined
+/// first (in ~state), then the session is released, then an own io_context destroys the
+/// handlers still holding it. On shared threads the session is told to end what it still
+/// has pending, and its last handler releases it.
 struct connection::state
 {
-    net::io_context io{1};
-    net::executor_work_guard<net::io_context::executor_type> work = net::make_work_guard(io);
+    std::unique_ptr<net::io_context> own_io;
+    net::io_context* io = nullptr;
+    std::optional<net::executor_work_guard<net::io_context::executor_type>> work;
     std::shared_ptr<session> live;
     std::thread io_thread;
     std::thread callback_thread;
+
+    explicit state(io_threads* shared)
+    {
+        if (shared) {
+            auto& pool = *shared->pool_;
+            io = pool.contexts[pool.next++ % pool.contexts.size()].get();
+        } else {
+            own_io = std::make_unique<net::io_context>(1);
+            io = own_io.get();
+            work.emplace(net::make_work_guard(*io));
+        }
+    }
 
     ~state()
     {
@@ -785,22 +836,38 @@ struct connection::state
             live->stop_callbacks();
         if (callback_thread.joinable())
             callback_thread.join();
+        if (!own_io) {
+            if (live)
+                net::post(*io, [s = live] { s->abandon(); });
+            return;
+        }
         work.reset();
-        io.stop();
+        io->stop();
         if (io_thread.joinable())
             io_thread.join();
     }
 };
 
 connection::connection(std::string const& url, connection_options options)
-    : state_(std::make_unique<state>())
+    : connection(url, std::move(options), nullptr)
+{
+}
+
+connection::connection(std::string const& url, connection_options options, io_threads& shared)
+    : connection(url, std::move(options), &shared)
+{
+}
+
+connection::connection(std::string const& url, connection_options options, io_threads* shared)
+    : state_(std::make_unique<state>(shared))
 {
     websocket_url parsed = parse_websocket_url(url);
-    state_->live = std::make_shared<session>(state_->io, std::move(options));
-    net::post(state_->io, [s = state_->live, parsed = std::move(parsed)]() mutable {
+    state_->live = std::make_shared<session>(*state_->io, std::move(options));
+    net::post(*state_->io, [s = state_->live, parsed = std::move(parsed)]() mutable {
         s->start(std::move(parsed));
     });
-    state_->io_thread = std::thread([&io = state_->io] { io.run(); });
+    if (state_->own_io)
+        state_->io_thread = std::thread([&io = *state_->io] { io.run(); });
     state_->live->await_welcome(); // throws: ~state stops the thread
     state_->live->await_resume();
     if (state_->live->options().on_snapshot)
@@ -929,10 +996,10 @@ void connection::close()
     auto& s = state_->live;
     if (s->closed_with())
         return;
-    net::post(state_->io, [s] { s->do_close(); });
+    net::post(*state_->io, [s] { s->do_close(); });
     if (s->wait_closed(std::chrono::seconds(1)))
         return;
-    net::post(state_->io, [s] { s->cut(); });
+    net::post(*state_->io, [s] { s->cut(); });
     s->wait_closed(std::chrono::seconds(1));
 }
 

@@ -162,7 +162,27 @@ struct snapshot_wait
     std::shared_ptr<protocol::snapshot const> snapshot;
 };
 
-/// One WebSocket connection to a room, with an I/O thread of its own. Every public function
+/// A few I/O threads that many connections share, for a program that holds hundreds of
+/// them (kugel-client load): a connection made with it runs on one of its threads (in turn)
+/// instead of a thread of its own. Must outlive every connection made with it.
+class io_threads
+{
+public:
+    /// `count` threads, at least 1.
+    explicit io_threads(std::size_t count);
+    /// Stops and joins the threads.
+    ~io_threads();
+    io_threads(io_threads const&) = delete;
+    io_threads& operator=(io_threads const&) = delete;
+
+private:
+    friend class connection;
+    struct pool;
+    std::unique_ptr<pool> pool_;
+};
+
+/// One WebSocket connection to a room, with an I/O thread of its own (or one of an
+/// io_threads'). Every public function
 /// may be called from any thread; none runs user code on the I/O thread, which only reads,
 /// decodes, counts and hands over (snapshots through a bounded queue, answers by ref).
 class connection
@@ -174,7 +194,9 @@ public:
     /// Throws url_error for a bad URL and connection_error when the server cannot be reached,
     /// refuses the upgrade (no such room), or sends no welcome in time.
     explicit connection(std::string const& url, connection_options options = {});
-    /// Closes (1000) if still open and waits for the I/O thread.
+    /// The same, on one of `shared`'s threads.
+    connection(std::string const& url, connection_options options, io_threads& shared);
+    /// Closes (1000) if still open and waits for the I/O thread (its own).
     ~connection();
     connection(connection const&) = delete;
     connection& operator=(connection const&) = delete;
@@ -258,6 +280,7 @@ public:
 private:
     class session;
     struct state;
+    connection(std::string const& url, connection_options options, io_threads* shared);
     std::unique_ptr<state> state_;
 };
 

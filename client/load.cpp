@@ -342,6 +342,8 @@ load_report run_load(load_options options)
     load_report report;
     report.options = options;
     std::size_t const n = options.clients;
+    // Declared first, so that every connection (and every close below) ends before it.
+    io_threads io(std::max(1U, std::thread::hardware_concurrency()));
 
     // Connect every client (one at a time: each waits for its welcome).
     std::vector<load_client> clients(n);
@@ -350,7 +352,7 @@ load_report run_load(load_options options)
         auto& r = report.clients[i];
         r.number = i + 1;
         try {
-            clients[i].link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options));
+            clients[i].link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options), io);
             r.client_id = clients[i].link->welcome().client;
             r.stats.opened = clients[i].link->stats().opened;
             r.connections = 1;
@@ -439,7 +441,7 @@ load_report run_load(load_options options)
         c.leaving_until.reset();
         ++c.reconnects;
         try {
-            c.link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options));
+            c.link = std::make_unique<connection>(options.url, load_connection_options(i + 1, options), io);
             r.client_id = c.link->welcome().client;
             ++r.connections;
             if (sending)

@@ -44,13 +44,15 @@ struct load_options
     std::function<bool()> stop_requested;
 };
 
-/// Each client is a connection with an I/O thread of its own and about four file
-/// descriptors (socket, epoll, eventfd, timerfd): 2,000 need `ulimit -n` of about 8,200.
+/// The clients' connections share a few I/O threads (one per processor): a thread per
+/// connection spent more of the machine switching between them than the server spent
+/// sending. Each connection holds a socket, and a second for a while when it reconnects:
+/// 2,000 need `ulimit -n` of about 4,100.
 inline constexpr std::size_t max_load_clients = 2000;
 inline constexpr std::size_t max_stalled_clients = 100;
 inline constexpr double max_reconnects_per_second = 1000.0;
 /// File descriptors one client needs (run_load checks RLIMIT_NOFILE against it).
-inline constexpr std::size_t file_descriptors_per_client = 4;
+inline constexpr std::size_t file_descriptors_per_client = 2;
 inline constexpr double max_load_duration = 3600.0;       ///< s
 inline constexpr double max_commands_per_second = 1000.0; ///< per client
 

@@ -9,6 +9,7 @@
 #include <atomic>
 #include <filesystem>
 #include <gtest/gtest.h>
+#include <set>
 #include <thread>
 
 namespace kugel::client {
@@ -428,6 +429,39 @@ TEST(Connection, CountingSnapshotTicksOnlyKeepsTheCountsAndNoSnapshots)
     EXPECT_EQ(stats.acks, 1U);
     EXPECT_EQ(stats.undecodable, 0U);
     EXPECT_EQ(c.next_snapshot(100ms), nullptr); // counted, not kept
+}
+
+// Many connections on two shared I/O threads: each has its own welcome, answers and
+// snapshots, closes cleanly, and one that cannot connect fails as a connection of its own
+// thread does, without holding up the rest.
+TEST(Connection, ManyConnectionsShareTwoIoThreads)
+{
+    running_server s;
+    io_threads io(2);
+    std::vector<std::unique_ptr<connection>> links;
+    for (int i = 0; i < 24; ++i)
+        links.push_back(std::make_unique<connection>(s.url(i % 2 == 0 ? "still" : "fall"), connection_options{}, io));
+    std::set<std::uint64_t> ids;
+    for (std::size_t i = 0; i < links.size(); ++i) {
+        auto& c = *links[i];
+        EXPECT_EQ(c.welcome().room, i % 2 == 0 ? "still" : "fall");
+        ids.insert(c.welcome().client);
+        auto const answer = c.await_reply(c.send(protocol::ping{}), 10s);
+        ASSERT_TRUE(answer);
+        EXPECT_TRUE(std::holds_alternative<protocol::pong>(*answer));
+    }
+    EXPECT_EQ(ids.size(), links.size()) << "every connection is a client of its own";
+    for (auto& c : links)
+        ASSERT_NE(c->next_snapshot(10s), nullptr);
+    EXPECT_THROW(connection(s.url("nowhere"), connection_options{}, io), connection_error);
+    for (auto& c : links) {
+        c->close();
+        ASSERT_TRUE(c->closed_with());
+        EXPECT_EQ(c->closed_with()->code, 1000);
+    }
+    links.clear();
+    connection late(s.url(), connection_options{}, io); // the threads still serve
+    EXPECT_TRUE(late.await_reply(late.send(protocol::ping{}), 10s));
 }
 
 TEST(Connection, CloseIsCleanAndFinal)
