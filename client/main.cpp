@@ -89,7 +89,8 @@ int watch(std::string const& url, bool as_json, std::uint64_t count, double time
     return 0;
 }
 
-int run(std::string const& file, std::string const& url, double timeout, bool quiet, bool cleanup)
+int run(std::string const& file, std::string const& url, double timeout, bool quiet, bool cleanup,
+        std::optional<kugel::protocol::snapshot_request> snapshots)
 {
     parse_websocket_url(url); // a bad URL is a usage error (2), not a failed step
     script s;
@@ -103,6 +104,7 @@ int run(std::string const& file, std::string const& url, double timeout, bool qu
     options.url = url;
     options.timeout = to_ms(timeout);
     options.cleanup = cleanup;
+    options.snapshots = std::move(snapshots);
     std::ostringstream discarded;
     run_result const result = run_script(s, options, quiet ? discarded : std::cout);
     if (quiet && !result.passed)
@@ -215,12 +217,17 @@ int main(int argc, char** argv)
                            "Each client subscribes to every event (sensor crossings, contacts) and counts them");
     load_command->add_flag("--json", load_json, "Print the report as JSON");
     std::string snapshot_form = "compact";
+    std::string run_snapshot_form = "full"; // scripts that check with tolerance 0 need exact doubles
     double snapshot_rate = 0.0;
-    for (CLI::App* command : {watch_command, load_command}) {
+    for (CLI::App* command : {watch_command, load_command, run_command}) {
         command
-            ->add_option("--snapshots", snapshot_form,
-                         "Snapshot form to ask for: compact (quantized keyframes and deltas, decoded "
-                         "here; protocol/PROTOCOL.md) or full")
+            ->add_option("--snapshots", command == run_command ? run_snapshot_form : snapshot_form,
+                         command == run_command
+                             ? "Snapshot form every client of the script asks for: full (exact "
+                               "doubles) or compact (quantized; $position_quantum and "
+                               "$velocity_quantum then hold the quanta, for tolerances)"
+                             : "Snapshot form to ask for: compact (quantized keyframes and deltas, "
+                               "decoded here; protocol/PROTOCOL.md) or full")
             ->check(CLI::IsMember({"compact", "full"}))
             ->capture_default_str();
         command->add_option("--snapshot-rate", snapshot_rate,
@@ -246,7 +253,8 @@ int main(int argc, char** argv)
             return watch(watch_url, watch_json, watch_count, watch_timeout,
                          snapshot_request(snapshot_form, snapshot_rate));
         if (*run_command)
-            return run(script_file, run_url, run_timeout, quiet, cleanup);
+            return run(script_file, run_url, run_timeout, quiet, cleanup,
+                       snapshot_request(run_snapshot_form, snapshot_rate));
         load_opts.snapshots = snapshot_request(snapshot_form, snapshot_rate);
         return load(load_opts, load_json);
     } catch (url_error const& e) {

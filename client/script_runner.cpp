@@ -10,6 +10,7 @@
 #include <limits>
 #include <map>
 #include <memory>
+#include <thread>
 #include <type_traits>
 
 namespace kugel::client {
@@ -151,11 +152,21 @@ private:
             connection_options o;
             o.name = "kugel-client run (" + s.client + ")";
             o.connect_timeout = options_.timeout;
+            o.snapshots = options_.snapshots;
             c.link = std::make_unique<connection>(options_.url, std::move(o));
-            protocol::welcome const& w = c.link->welcome();
+            // The welcome that answers the hello's snapshots names the quanta.
+            auto const until = std::chrono::steady_clock::now() + options_.timeout;
+            while (options_.snapshots && !c.link->welcome().snapshots && c.link->is_open() &&
+                   std::chrono::steady_clock::now() < until)
+                std::this_thread::sleep_for(std::chrono::milliseconds(5));
+            protocol::welcome const w = c.link->welcome();
             vars_.set("dt", w.dt);
             vars_.set("tick_rate", w.tick_rate);
             vars_.set("snapshot_rate", w.snapshot_rate);
+            if (w.snapshots && w.snapshots->form == "compact") {
+                vars_.set("position_quantum", w.snapshots->position_quantum);
+                vars_.set("velocity_quantum", w.snapshots->velocity_quantum);
+            }
             log_ << "     client " << s.client << " joined room '" << w.room << "' (scene '"
                  << w.scene.name << "', client id " << w.client << ")\n";
         }

@@ -4,8 +4,10 @@
 // step fails or all have passed.
 
 #include "client/script.hpp"
+#include "protocol/messages.hpp"
 
 #include <chrono>
+#include <optional>
 #include <ostream>
 #include <string>
 
@@ -20,6 +22,11 @@ struct run_options
     /// Remove what each client spawned at the end, passed or failed (also when the script
     /// says "cleanup": true).
     bool cleanup = false;
+    /// The snapshots every client of the script asks for in its hello; nullopt asks for
+    /// nothing: the full form, exact doubles (what a check with tolerance 0 needs). On the
+    /// compact form the variables position_quantum and velocity_quantum hold the quanta the
+    /// welcome announced, for tolerances.
+    std::optional<protocol::snapshot_request> snapshots;
 };
 
 struct run_result

@@ -42,12 +42,14 @@ struct outcome
     std::string log;
 };
 
-outcome run(std::string const& url, std::string const& text)
+outcome run(std::string const& url, std::string const& text,
+            std::optional<protocol::snapshot_request> snapshots = std::nullopt)
 {
     std::ostringstream log;
     run_options options;
     options.url = url;
     options.timeout = 10s;
+    options.snapshots = std::move(snapshots);
     run_result result = run_script(parse_script(text), options, log);
     return {std::move(result), log.str()};
 }
@@ -69,6 +71,35 @@ TEST(ScriptRunner, KeptValuesAreUsedLater)
     EXPECT_TRUE(o.result.passed) << o.log;
     EXPECT_EQ(o.result.failed_step, 0U);
     EXPECT_NE(o.log.find("passed: 9 steps"), std::string::npos) << o.log;
+}
+
+// On the compact form a script sees positions to the announced quantum: a check within the
+// quantum passes, an exact one fails (0.123456789 m is no whole number of quanta), and the
+// quanta are variables for tolerances. On the full form the exact check passes.
+TEST(ScriptRunner, CompactSnapshotsAreCheckedToTheAnnouncedQuantum)
+{
+    running_server s;
+    auto const script = [](std::string const& tolerance) {
+        return R"({"steps": [
+            {"send": {"type": "spawn", "body": {"position": [3, 0.123456789, 0], "radius": 0.5, "mass": 4}}},
+            {"expect": {"type": "ack", "keep": {"b": "id", "t": "tick"}}},
+            {"wait_until_tick": "$t"},
+            {"expect_body": {"id": "$b", "position": [3, 0.123456789, 0], "tolerance": )" +
+               tolerance + R"(}},
+            {"send": {"type": "remove", "id": "$b"}},
+            {"expect": {"type": "ack"}}
+        ]})";
+    };
+    protocol::snapshot_request const compact{.form = "compact"};
+    outcome const within = run(s.url(), script(R"("= $position_quantum / 2")"), compact);
+    EXPECT_TRUE(within.result.passed) << within.log;
+    outcome const exact = run(s.url(), script("0"), compact);
+    EXPECT_FALSE(exact.result.passed) << exact.log;
+    EXPECT_EQ(exact.result.failed_step, 4U) << exact.log;
+    outcome const full = run(s.url(), script("0"));
+    EXPECT_TRUE(full.result.passed) << full.log;
+    outcome const no_quanta = run(s.url(), script(R"("$position_quantum")"));
+    EXPECT_FALSE(no_quanta.result.passed) << "the full form announces no quanta";
 }
 
 TEST(ScriptRunner, AFailureNamesTheStepWhatWasExpectedAndWhatArrived)
