@@ -18,6 +18,12 @@ struct body_id
 
 inline bool is_null(body_id id) { return id.generation == 0; }
 
+/// An order of ids (slot, then generation): for sorted lists of bodies and pairs.
+inline bool by_id(body_id a, body_id b)
+{
+    return a.index != b.index ? a.index < b.index : a.generation < b.generation;
+}
+
 /// One number for the outside world (protocol, logs): generation in the high 32 bits.
 inline std::uint64_t to_number(body_id id)
 {

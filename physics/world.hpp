@@ -247,6 +247,7 @@ private:
     std::size_t reporting_ = 0;                ///< bodies reported
     /// The reported pairs touching after the last substep, a before b, sorted
     std::vector<std::pair<body_id, body_id>> touching_;
+    std::vector<std::pair<body_id, body_id>> touching_next_; ///< note_touches' list being made
     std::vector<contact_event> contact_events_; ///< of the last step
     std::vector<contact_event> touches_;        ///< scratch: a substep's touches, as events
     // Sleeping, by slot (moved with the bodies by remove_body and sort_bodies_by_cell)

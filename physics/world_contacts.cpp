@@ -10,8 +10,6 @@ namespace kugel::physics {
 
 namespace {
 
-bool by_id(body_id a, body_id b) { return a.index != b.index ? a.index < b.index : a.generation < b.generation; }
-
 bool by_pair(std::pair<body_id, body_id> const& x, std::pair<body_id, body_id> const& y)
 {
     return std::tuple(x.first.index, x.first.generation, x.second.index, x.second.generation) <
@@ -96,7 +94,8 @@ void world::note_touches(double h, double start)
     });
 
     // A pair that touched and did not touch before begins a contact, at its first touch.
-    std::vector<std::pair<body_id, body_id>> now;
+    auto& now = touching_next_; // reused: no allocation per substep once it has grown
+    now.clear();
     for (std::size_t k = 0; k < touches_.size(); ++k) {
         contact_event const& e = touches_[k];
         if (k > 0 && touches_[k - 1].a == e.a && touches_[k - 1].b == e.b)
@@ -107,17 +106,19 @@ void world::note_touches(double h, double start)
             contact_events_.push_back(e);
     }
     // One that touched before and not now goes on touching until its spheres part (a pair at
-    // rest, asleep, or a step's answer away).
+    // rest, asleep, or a step's answer away). Searched among this substep's touches alone,
+    // the sorted part (touches_ is in pair order).
+    auto const touched = static_cast<std::ptrdiff_t>(now.size());
     for (auto const& pair : touching_) {
         auto const i = bodies_.slot_of(pair.first), j = bodies_.slot_of(pair.second);
-        if (!i || !j || std::binary_search(now.begin(), now.end(), pair, by_pair))
+        if (!i || !j || std::binary_search(now.begin(), now.begin() + touched, pair, by_pair))
             continue;
         double const reach = radius[*i] + radius[*j];
         if ((x[*i] - x[*j]).norm() <= reach + parting_share * std::min(radius[*i], radius[*j]))
             now.push_back(pair);
     }
     std::sort(now.begin(), now.end(), by_pair);
-    touching_ = std::move(now);
+    std::swap(touching_, now);
 }
 
 } // namespace kugel::physics

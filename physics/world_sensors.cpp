@@ -10,8 +10,6 @@ namespace kugel::physics {
 
 namespace {
 
-bool by_id(body_id a, body_id b) { return a.index != b.index ? a.index < b.index : a.generation < b.generation; }
-
 bool overlap(aabb const& a, aabb const& b)
 {
     return (a.min.array() <= b.max.array()).all() && (b.min.array() <= a.max.array()).all();
