@@ -86,11 +86,6 @@ std::shared_ptr<std::string const> encoded_snapshot::delta_for(protocol::compact
     return bytes;
 }
 
-std::shared_ptr<std::string const> encoded_snapshot::delta_after(encoded_snapshot const& previous) const
-{
-    return previous.view_ == view_ ? delta_from(previous.tick()) : nullptr;
-}
-
 void encoded_snapshot::count_encoded(snapshot_form form, std::size_t bytes) const
 {
     if (encoded_)

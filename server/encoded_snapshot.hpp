@@ -74,8 +74,6 @@ public:
     /// or most_catch_up_bases other bases were asked for already.
     std::shared_ptr<std::string const> delta_for(protocol::compact_state const& held,
                                                  std::uint64_t every) const;
-    /// The delta that follows `previous`, if one was encoded: a snapshot of the same view.
-    std::shared_ptr<std::string const> delta_after(encoded_snapshot const& previous) const;
     /// Counts an encoding made for one session alone (a delta between two views).
     void count_encoded(snapshot_form form, std::size_t bytes) const;
 

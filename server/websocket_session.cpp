@@ -15,11 +15,6 @@ namespace kugel::server {
 
 namespace {
 
-/// A compact client a little behind gets at most this many unsent snapshots, as a run of
-/// deltas, and at most this many bytes of them after the first, before a newer snapshot
-/// replaces them all (and then comes as a keyframe).
-constexpr std::size_t most_pending_snapshots = 4;
-constexpr std::size_t most_pending_delta_bytes = 64 * 1024;
 /// Player messages unsent before they are replaced by one roster.
 constexpr std::size_t most_player_messages = 16;
 
@@ -470,23 +465,11 @@ void websocket_session::queue_snapshot(std::shared_ptr<encoded_snapshot const> s
         bump(room_->traffic().stalled_clients);
         return drop_connection("not reading: a send has been pending too long");
     }
-    if (!pending_snapshots_.empty()) {
-        // On the compact form a snapshot may follow an unsent one as the delta against it, up
-        // to a short run; otherwise a newer snapshot replaces every unsent one.
-        if (compact_ && pending_snapshots_.size() < most_pending_snapshots) {
-            std::size_t bytes = 0;
-            for (std::size_t k = 1; k < pending_snapshots_.size(); ++k)
-                bytes += pending_snapshots_[k]->delta_after(*pending_snapshots_[k - 1])->size();
-            if (auto const follows = snapshot->delta_after(*pending_snapshots_.back());
-                follows && bytes + follows->size() <= most_pending_delta_bytes) {
-                pending_snapshots_.push_back(std::move(snapshot));
-                return write_next();
-            }
-        }
-        bump(room_->traffic().snapshots_dropped, pending_snapshots_.size());
-        pending_snapshots_.clear();
-    }
-    pending_snapshots_.push_back(std::move(snapshot));
+    // A newer snapshot replaces an unsent one; on the compact form it then comes as the delta
+    // from the state the client holds (bytes_of).
+    if (pending_snapshot_)
+        bump(room_->traffic().snapshots_dropped);
+    pending_snapshot_ = std::move(snapshot);
     write_next();
 }
 
@@ -529,10 +512,10 @@ void websocket_session::write_next()
         in_flight_ = std::move(events_.front());
         events_.pop_front();
         bump(traffic.events_out);
-    } else if (!pending_snapshots_.empty()) {
-        auto [bytes, form] = bytes_of(*pending_snapshots_.front());
+    } else if (pending_snapshot_) {
+        auto [bytes, form] = bytes_of(*pending_snapshot_);
         in_flight_ = std::move(bytes);
-        pending_snapshots_.pop_front();
+        pending_snapshot_.reset();
         bump(traffic.snapshots_out);
         traffic.sent.count(form, in_flight_->size());
     } else {
@@ -565,7 +548,7 @@ void websocket_session::close_with(websocket::close_code code, std::string_view 
     closing_ = true;
     replies_.clear();
     events_.clear();
-    pending_snapshots_.clear();
+    pending_snapshot_.reset();
     held_while_paused_.reset(); // the caller holds the session
     if (!accepted_)
         return drop_connection("closed before the handshake finished");
@@ -584,7 +567,7 @@ void websocket_session::drop_connection(char const* why)
     closing_ = true;
     replies_.clear();
     events_.clear();
-    pending_snapshots_.clear();
+    pending_snapshot_.reset();
     held_while_paused_.reset(); // the caller holds the session
     beast::error_code ignored;
     beast::get_lowest_layer(ws_).socket().shutdown(tcp::socket::shutdown_both, ignored);

@@ -36,9 +36,9 @@ struct queued_event
 /// to do can hold up the tick or another client:
 ///  - replies (welcome, ack, error, pong) wait in a small queue, sent before any snapshot;
 ///    when the queue is full the client is closed with 1008 (policy);
-///  - snapshots take one slot: a newer one replaces one not yet sent (on the compact form, a
-///    newer one that is the delta against the unsent one may follow it, up to a short run:
-///    never a delta the client cannot apply, and no keyframe for falling a snapshot behind);
+///  - snapshots take one slot: a newer one replaces one not yet sent (on the compact form it
+///    is then sent as the delta from the state the client holds: never a delta the client
+///    cannot apply, and no keyframe for falling behind);
 ///  - a send pending longer than client_limits::write_stall means the client is not
 ///    reading: the connection is dropped.
 /// All members run on the session's strand; the public functions may be called from any
@@ -143,10 +143,9 @@ private:
     /// dropped since the last one queued.
     std::deque<std::shared_ptr<std::string const>> events_;
     std::uint64_t events_missed_ = 0;
-    /// Snapshots not yet sent: the newest alone, or, on the compact form, a short run of
-    /// deltas each against the one before (a client a little behind gets them rather than a
-    /// keyframe many times their size, which would put it further behind).
-    std::deque<std::shared_ptr<encoded_snapshot const>> pending_snapshots_;
+    /// The snapshot not yet sent: the newest alone (on the compact form, whichever snapshots
+    /// it replaced, it comes as the delta from the state the client holds).
+    std::shared_ptr<encoded_snapshot const> pending_snapshot_;
     bool compact_ = false;          ///< the client asked for the compact form
     std::uint64_t every_ = 1;       ///< it takes the room's snapshots whose index is a multiple
     /// The last compact snapshot written: the state the client holds, the only base a delta
