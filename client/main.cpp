@@ -53,11 +53,13 @@ std::optional<kugel::protocol::snapshot_request> snapshot_request(std::string co
 }
 
 int watch(std::string const& url, bool as_json, std::uint64_t count, double timeout,
-          std::optional<kugel::protocol::snapshot_request> snapshots)
+          std::optional<kugel::protocol::snapshot_request> snapshots, bool events)
 {
     connection_options options;
     options.name = "kugel-client watch";
     options.snapshots = std::move(snapshots);
+    if (events)
+        options.events = kugel::protocol::event_request{}; // every event
     options.connect_timeout = to_ms(timeout);
     connection link(url, options);
     auto const w = link.welcome();
@@ -65,8 +67,14 @@ int watch(std::string const& url, bool as_json, std::uint64_t count, double time
               << " ticks/s, " << w.snapshot_rate << " snapshots/s, dt " << w.dt << " s\n";
     stop_on_signals();
     std::uint64_t printed = 0;
+    // A tick's events come before its snapshot: those received are printed first.
+    auto const print_events = [&] {
+        while (auto const e = link.next_event(std::chrono::milliseconds(0)))
+            std::cout << (as_json ? kugel::protocol::encode(*e) : event_line(*e)) << '\n';
+    };
     while (!stop_requested && (count == 0 || printed < count)) {
         auto const snapshot = link.next_snapshot(std::chrono::milliseconds(200));
+        print_events();
         if (!snapshot) {
             if (auto const ended = link.closed_with()) {
                 std::cerr << "connection closed"
@@ -151,6 +159,10 @@ int main(int argc, char** argv)
     watch_command->add_option("--timeout", watch_timeout, "Seconds to wait for the connection")
         ->check(CLI::Range(0.1, 600.0))
         ->capture_default_str();
+    bool watch_events = false;
+    watch_command->add_flag("--events", watch_events,
+                            "Also print every event (sensor crossings, contacts), a line each "
+                            "(its JSON message with --json), before the snapshot of its tick");
 
     CLI::App* run_command = app.add_subcommand(
         "run", "Run a script of steps (send, expect, wait, check bodies) against a server. Prints "
@@ -251,7 +263,7 @@ int main(int argc, char** argv)
     try {
         if (*watch_command)
             return watch(watch_url, watch_json, watch_count, watch_timeout,
-                         snapshot_request(snapshot_form, snapshot_rate));
+                         snapshot_request(snapshot_form, snapshot_rate), watch_events);
         if (*run_command)
             return run(script_file, run_url, run_timeout, quiet, cleanup,
                        snapshot_request(run_snapshot_form, snapshot_rate));

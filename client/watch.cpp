@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <array>
 #include <cstdio>
+#include <string>
 
 namespace kugel::client {
 
@@ -33,6 +34,38 @@ std::string summary_line(protocol::snapshot const& snapshot)
         std::snprintf(line.data(), line.size(), "  kinetic energy %.9g J", *energy);
         text += line.data();
     }
+    return text;
+}
+
+std::string event_line(protocol::event const& event)
+{
+    std::array<char, 96> head{};
+    int const n = std::snprintf(head.data(), head.size(), "event tick %llu  time %.6g s  ",
+                                static_cast<unsigned long long>(event.tick), event.time);
+    std::string text(head.data(), std::min(static_cast<std::size_t>(std::max(n, 0)), head.size() - 1));
+    text += event.kind;
+    auto const body = [](std::uint64_t id, std::optional<std::string> const& tag) {
+        std::string b = std::to_string(id);
+        if (tag && !tag->empty())
+            b += " (" + *tag + ")";
+        return b;
+    };
+    if (event.sensor)
+        text += " " + *event.sensor;
+    if (event.body) {
+        text += "  body " + body(*event.body, event.tag);
+        if (event.owner)
+            text += "  owner " + std::to_string(*event.owner);
+    }
+    if (event.bodies) {
+        text += "  bodies";
+        for (std::size_t k = 0; k < event.bodies->size(); ++k)
+            text += " " + body((*event.bodies)[k], event.tags && k < event.tags->size()
+                                                       ? std::optional<std::string>((*event.tags)[k])
+                                                       : std::nullopt);
+    }
+    if (event.missed)
+        text += "  missed " + std::to_string(*event.missed);
     return text;
 }
 

@@ -17,4 +17,9 @@ std::optional<double> kinetic_energy(protocol::snapshot const& snapshot);
 /// only when known).
 std::string summary_line(protocol::snapshot const& snapshot);
 
+/// One line for an event: "event tick 1204  time 20.0583 s  entered goal  body 17 (ball,
+/// owner 3)" or "event tick 88  time 1.46 s  contact  bodies 4 (ball) 9 (post)", with
+/// "  missed 2" when the server dropped some before it.
+std::string event_line(protocol::event const& event);
+
 } // namespace kugel::client

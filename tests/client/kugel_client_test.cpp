@@ -182,6 +182,48 @@ TEST(KugelClient, WatchPrintsALinePerSnapshot)
     EXPECT_NE(json.output.find(R"({"type":"snapshot","tick":)"), std::string::npos) << json.output;
 }
 
+// With --events, watch prints each event too, before the snapshot of its tick: a ball at
+// 4 m/s from x = −9 brings its centre into a sensor whose box starts at x = 1.2 at 2.55 s,
+// long after the watch has joined.
+TEST(KugelClient, WatchPrintsEventsWhenAsked)
+{
+    fs::path const scene = temp_file("watch_events.json");
+    std::ofstream(scene) << R"({"name": "line", "dt": 0.015625, "integrator": "semi_implicit_euler",
+        "collisions": {"mode": "off"}, "box": {"min": [-10, -5, -1], "max": [10, 5, 1]},
+        "bodies": [{"position": [-9, 0, 0], "velocity": [4, 0, 0], "radius": 0.2, "mass": 1, "tag": "ball"}],
+        "sensors": [{"name": "line", "box": {"min": [1.2, -5, -1], "max": [2, 5, 1]}}]})";
+    server_child server(KUGEL_SERVER_EXE, {"--room", "line=" + scene.string()},
+                        temp_file("watch_events.server.log"));
+    finished const lines = run_client({"watch", server.url("line"), "--count", "120", "--events"}, "watch_events");
+    EXPECT_EQ(lines.status, 0) << lines.output;
+    auto const event = lines.output.find("\nevent tick ");
+    ASSERT_NE(event, std::string::npos) << lines.output;
+    std::istringstream line(lines.output.substr(event + 1, lines.output.find('\n', event + 1) - event - 1));
+    std::string word, kind, sensor, body, id, tag;
+    std::uint64_t tick = 0;
+    double time = 0.0;
+    line >> word >> word >> tick >> word >> time >> word >> kind >> sensor >> body >> id >> tag;
+    EXPECT_NEAR(time, 2.55, 1e-5) << line.str(); // printed to 6 digits
+    EXPECT_EQ(kind, "entered");
+    EXPECT_EQ(sensor, "line");
+    EXPECT_EQ(tag, "(ball)");
+    // The snapshot of its tick (or the first after, as the room sends every other) comes after it.
+    auto const snapshot_after = [&](std::uint64_t from) {
+        for (std::uint64_t t = from; t < from + 4; ++t)
+            if (auto const at = lines.output.find("\ntick " + std::to_string(t) + "  time"); at != std::string::npos)
+                return at;
+        return std::string::npos;
+    };
+    auto const its_snapshot = snapshot_after(tick);
+    ASSERT_NE(its_snapshot, std::string::npos) << lines.output;
+    EXPECT_LT(event, its_snapshot) << lines.output;
+
+    finished const json =
+        run_client({"watch", server.url("line"), "--count", "1", "--json", "--events"}, "watch_events_json");
+    EXPECT_EQ(json.status, 0) << json.output;
+    EXPECT_NE(json.output.find(R"({"type":"snapshot")"), std::string::npos) << json.output;
+}
+
 TEST(KugelClient, EveryCommandHasHelp)
 {
     for (std::string const command : {"watch", "run", "load"}) {
