@@ -7,8 +7,9 @@
 // (PROTOCOL.md, "Compact snapshots") at the room's snapshot rate. When the page falls behind
 // (more than half a second of the asked rate's frames, at least 4, waiting to be parsed for a
 // whole second) it
-// asks for half the rate, at most once every 3 s and not below 1 Hz; a new socket asks for
-// the room's rate again. A compact snapshot that cannot be applied (malformed, or a delta
+// asks for half the rate, at most once every 3 s and not below 1 Hz; once it has kept up
+// for 10 s (at most one frame waiting at every check) it asks for twice the rate again, up
+// to the room's; a new socket asks for the room's rate again. A compact snapshot that cannot be applied (malformed, or a delta
 // whose base the page does not hold) drops the socket and opens a new one, whose first
 // snapshot is a keyframe, as PROTOCOL.md asks; after 3 such refusals the connection asks for
 // the full form instead, which needs no state. A server that does not grant the compact form
@@ -19,6 +20,7 @@ import { parse_frame } from './parse_frame.js';
 
 const backlog_check_interval = 1000; // ms
 const rate_lowering_pause = 3; // s between two halvings of the asked rate
+const rate_raising_calm = 10; // s of keeping up before the asked rate is doubled again
 const max_resyncs = 3; // refused compact snapshots before the connection asks for the full form
 
 /** Milliseconds to wait before reconnect attempt `attempt` (0, 1, 2, ...), with +-20 % jitter. */
@@ -90,6 +92,7 @@ export class Connection {
     this.hello_sent = false; // on this socket
     this.socket_welcomes = 0; // welcomes on this socket: the first starts a new stream of snapshots
     this.lowered_at = -Infinity; // local s: when the asked rate was last halved
+    this.calm_since = null; // local s: since when the page has kept up (null: it has not)
     this.in_flight = 0; // frames handed to the worker and not yet back
     this.min_in_flight = 0; // the fewest since the last check
     this.backlog_timer = null;
@@ -229,15 +232,25 @@ export class Connection {
     this.dropped();
   }
 
-  /** Halves the asked rate when frames waited too long to be parsed (see the top of the file). */
+  /**
+   * Halves the asked rate when frames waited too long to be parsed, and doubles it again
+   * after a calm while (see the top of the file).
+   */
   check_backlog() {
     const now = performance.now() / 1000;
     const limit = Math.max(4, Math.ceil(this.asked_rate / 2));
-    const behind = this.min_in_flight > limit; // never fewer waiting since the last check
+    const waiting = this.min_in_flight; // never fewer waiting since the last check
     this.min_in_flight = this.in_flight;
-    if (!behind || !this.granted || this.asked_rate <= 1 || now - this.lowered_at < rate_lowering_pause) return;
-    this.lowered_at = now;
-    this.ask_for_snapshots(Math.max(1, this.asked_rate / 2));
+    if (waiting > 1) this.calm_since = null;
+    else this.calm_since ??= now;
+    if (!this.granted) return;
+    if (waiting > limit && this.asked_rate > 1 && now - this.lowered_at >= rate_lowering_pause) {
+      this.lowered_at = now;
+      this.ask_for_snapshots(Math.max(1, this.asked_rate / 2));
+    } else if (this.calm_since !== null && now - this.calm_since >= rate_raising_calm && this.room_rate && this.asked_rate < this.room_rate) {
+      this.calm_since = now; // another calm while before the next doubling
+      this.ask_for_snapshots(Math.min(this.room_rate, this.asked_rate * 2));
+    }
   }
 
   start_pings() {

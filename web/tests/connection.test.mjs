@@ -195,7 +195,7 @@ test('a refused full-form snapshot is dropped; the socket stays', () => {
   }
 });
 
-test('a page whose frames wait to be parsed asks for half the rate, and not again at once', () => {
+test('a page whose frames wait to be parsed asks for half the rate, not again at once, and twice again after 10 s of keeping up', () => {
   const posted = [];
   globalThis.Worker = class {
     postMessage(data) {
@@ -227,6 +227,21 @@ test('a page whose frames wait to be parsed asks for half the rate, and not agai
     now += 5;
     mock.timers.tick(2000);
     assert.deepEqual(rates(), [30, 15]);
+    // Kept up from the first check after the catch-up (at 106 s) for 10 s: twice the rate
+    // again, up to the room's, and no higher.
+    for (let s = 0; s < 9; s++) {
+      now += 1;
+      mock.timers.tick(1000);
+    }
+    assert.deepEqual(rates(), [30, 15], 'calm for 9 s');
+    now += 1;
+    mock.timers.tick(1000);
+    assert.deepEqual(rates(), [30, 15, 30], 'calm for 10 s');
+    for (let s = 0; s < 30; s++) {
+      now += 1;
+      mock.timers.tick(1000);
+    }
+    assert.deepEqual(rates(), [30, 15, 30], 'at the room\'s rate already');
   } finally {
     close_connection(connection);
     delete globalThis.Worker;
