@@ -272,6 +272,11 @@ int main(int argc, char** argv)
                    "Largest inbound WebSocket frame; a larger one closes the connection (1009)")
         ->check(CLI::Range(std::size_t{256}, std::size_t{64} << 20))
         ->capture_default_str();
+    app.add_option("--max-queued-events", options.client.max_queued_events,
+                   "Events (sensor crossings, contacts) a client may have unsent; more are\n"
+                   "dropped, and the next sent says how many in `missed`")
+        ->check(CLI::Range(std::size_t{1}, std::size_t{1} << 16))
+        ->capture_default_str();
     double write_stall = 5.0;
     app.add_option("--write-stall", write_stall,
                    "Seconds a send to a client may stay pending before that client, which has\n"

@@ -610,6 +610,25 @@ TEST(ServerProcess, SigtermClosesEveryClientWithGoingAwayAndExitsZero)
     EXPECT_EQ(status, 0) << p.log();
 }
 
+// --max-queued-events sets how many events a client may have unsent: the welcome's limits say
+// it; out of range, the server refuses to start and names the option.
+TEST(ServerProcess, MaxQueuedEventsIsAnnouncedAndBounded)
+{
+    std::string const scene = write_scene("events_limit", still_scene()).string();
+    test_support::server_child p(KUGEL_SERVER_EXE, {"--room", "still=" + scene, "--max-queued-events", "17"},
+                                 log_file("events_limit"));
+    client c(p.port(), "/ws/still");
+    EXPECT_EQ(c.next("welcome").at("limits").at("max_queued_events"), 17);
+    EXPECT_EQ(p.stop(), 0) << p.log();
+    for (std::string const bad : {"0", "65537", "many"}) {
+        test_support::child_process refused(KUGEL_SERVER_EXE,
+                                            {"--room", "still=" + scene, "--max-queued-events", bad},
+                                            log_file("events_limit_" + bad));
+        EXPECT_EQ(refused.wait(std::chrono::seconds(10)), 2) << bad;
+        EXPECT_NE(refused.output().find("--max-queued-events"), std::string::npos) << refused.output();
+    }
+}
+
 /// Writes a small file (creating its folders).
 void write_file(fs::path const& file, std::string const& text)
 {
