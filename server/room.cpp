@@ -567,8 +567,9 @@ void room::request_snapshots(std::shared_ptr<websocket_session> session,
                 m.every = static_cast<std::uint64_t>(std::clamp(std::ceil(ratio - 1e-9), 1.0, cap));
             }
             m.asked = true;
-            session->use_snapshots(m.compact, m.every);
-            session->send_notice(self->welcome_for(m));
+            // One turn of the session's strand: a snapshot posted meanwhile cannot come
+            // between the new form and the welcome that announces it.
+            session->use_snapshots(m.compact, m.every, self->welcome_for(m));
         }
     });
 }

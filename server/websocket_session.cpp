@@ -427,13 +427,14 @@ void websocket_session::send_snapshot(std::shared_ptr<encoded_snapshot const> sn
     });
 }
 
-void websocket_session::use_snapshots(bool compact, std::uint64_t every)
+void websocket_session::use_snapshots(bool compact, std::uint64_t every, std::shared_ptr<std::string const> welcome)
 {
-    net::post(ws_.get_executor(), [self = shared_from_this(), compact, every] {
+    net::post(ws_.get_executor(), [self = shared_from_this(), compact, every, welcome = std::move(welcome)]() mutable {
         if (compact != self->compact_)
             self->compact_held_.reset(); // the first compact snapshot is a keyframe
         self->compact_ = compact;
         self->every_ = every;
+        self->queue_reply(std::move(welcome)); // owes no answer, as send_notice
     });
 }
 

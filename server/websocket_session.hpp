@@ -74,8 +74,9 @@ public:
     /// chosen when it is written (encoded_snapshot).
     void send_snapshot(std::shared_ptr<encoded_snapshot const> snapshot);
     /// From the next snapshot on: the compact form or the full one, and every n-th of the
-    /// room's snapshots (the room's answer to hello.snapshots).
-    void use_snapshots(bool compact, std::uint64_t every);
+    /// room's snapshots (the room's answer to hello.snapshots), announced by `welcome`, which
+    /// is queued in the same turn: no snapshot of the new form goes out before it.
+    void use_snapshots(bool compact, std::uint64_t every, std::shared_ptr<std::string const> welcome);
     /// Closes with 1001 (going away): the server is shutting down.
     void shut_down();
 
