@@ -10,6 +10,7 @@
 #include <limits>
 #include <optional>
 #include <random>
+#include <stdexcept>
 #include <utility>
 #include <vector>
 
@@ -113,26 +114,36 @@ std::uint64_t draw_below(std::mt19937_64& rng, std::uint64_t bound)
     }
 }
 
-/// The points minus `origin`, in a fixed pseudo-random order (Fisher–Yates).
-std::vector<vec3> shuffled_relative_to(std::span<vec3 const> points, vec3 const& origin)
+/// The points of two spans as one list, a's then b's, read where they are: a cloud of a
+/// million spheres' centres is not copied (24 MB) to find its bounds.
+struct two_spans
 {
-    std::vector<vec3> out;
-    out.reserve(points.size());
-    for (vec3 const& p : points)
-        out.push_back(p - origin);
+    std::span<vec3 const> a, b;
+
+    std::size_t size() const { return a.size() + b.size(); }
+    vec3 const& operator[](std::size_t i) const { return i < a.size() ? a[i] : b[i - a.size()]; }
+};
+
+/// The numbers below n in a fixed pseudo-random order (Fisher–Yates).
+std::vector<std::uint32_t> shuffled_indices(std::size_t n)
+{
+    std::vector<std::uint32_t> order(n);
+    for (std::size_t i = 0; i < n; ++i)
+        order[i] = static_cast<std::uint32_t>(i);
     std::mt19937_64 rng(shuffle_seed);
-    for (std::size_t i = out.size(); i > 1; --i)
-        std::swap(out[i - 1], out[draw_below(rng, i)]);
-    return out;
+    for (std::size_t i = n; i > 1; --i)
+        std::swap(order[i - 1], order[draw_below(rng, i)]);
+    return order;
 }
 
 /// The radius grown, if need be, to the largest distance from `centre` to any point, so that
 /// (p − centre).norm() <= radius holds for every point as evaluated in double.
-double enclosing_radius(std::span<vec3 const> points, vec3 const& centre, double radius)
+template <class Points>
+double enclosing_radius(Points const& points, vec3 const& centre, double radius)
 {
     double max_squared = 0.0;
-    for (vec3 const& p : points)
-        max_squared = std::max(max_squared, (p - centre).squaredNorm());
+    for (std::size_t i = 0; i < points.size(); ++i)
+        max_squared = std::max(max_squared, (points[i] - centre).squaredNorm());
     return std::max(radius, std::sqrt(max_squared));
 }
 
@@ -189,17 +200,28 @@ sphere approximate_bounding_sphere(std::span<vec3 const> points)
     return s;
 }
 
-sphere minimum_bounding_sphere(std::span<vec3 const> points)
+sphere minimum_bounding_sphere(std::span<vec3 const> points, std::span<vec3 const> more)
 {
-    if (points.empty())
+    two_spans const all{points, more};
+    std::size_t const n = all.size();
+    if (n == 0)
         return {};
+    if (n > std::numeric_limits<std::uint32_t>::max())
+        throw std::length_error("minimum_bounding_sphere: more than 2^32 - 1 points");
 
     // Work relative to the middle of the cloud, so that rounding is relative to its size and
     // not to its distance from the origin.
-    aabb const box = aabb_of_points(points);
+    aabb box{all[0], all[0]};
+    for (std::size_t i = 1; i < n; ++i) {
+        box.min = box.min.cwiseMin(all[i]);
+        box.max = box.max.cwiseMax(all[i]);
+    }
     vec3 const origin = box.centre();
     double const scale = 0.5 * box.extent().norm();
-    std::vector<vec3> const p = shuffled_relative_to(points, origin);
+    // The points in a fixed pseudo-random order, relative to the origin: an index a point
+    // (4 bytes) rather than a shifted copy (24).
+    std::vector<std::uint32_t> const order = shuffled_indices(n);
+    auto p = [&](std::size_t k) -> vec3 { return all[order[k]] - origin; };
 
     // Welzl without recursion on the points: the loop at depth k finds the smallest sphere
     // holding the points so far with the k chosen points on its surface. A point outside the
@@ -208,33 +230,36 @@ sphere minimum_bounding_sphere(std::span<vec3 const> points)
     // the sphere completely. In exact arithmetic the support sets are never degenerate; in
     // floating point a collinear or coplanar set can only come from rounding, and then the
     // current sphere is grown to reach the new point instead.
-    std::size_t const n = p.size();
-    sphere s{p[0], 0.0};
+    sphere s{p(0), 0.0};
     for (std::size_t i = 1; i < n; ++i) {
-        if (contains(s, p[i], scale))
+        vec3 const pi = p(i);
+        if (contains(s, pi, scale))
             continue;
-        s = {p[i], 0.0};
+        s = {pi, 0.0};
         for (std::size_t j = 0; j < i; ++j) {
-            if (contains(s, p[j], scale))
+            vec3 const pj = p(j);
+            if (contains(s, pj, scale))
                 continue;
-            s = smallest_sphere_through(p[i], p[j]);
+            s = smallest_sphere_through(pi, pj);
             for (std::size_t k = 0; k < j; ++k) {
-                if (contains(s, p[k], scale))
+                vec3 const pk = p(k);
+                if (contains(s, pk, scale))
                     continue;
-                auto const through_k = smallest_sphere_through(p[i], p[j], p[k]);
-                s = through_k ? *through_k : grown_to(s, p[k]);
+                auto const through_k = smallest_sphere_through(pi, pj, pk);
+                s = through_k ? *through_k : grown_to(s, pk);
                 for (std::size_t l = 0; l < k; ++l) {
-                    if (contains(s, p[l], scale))
+                    vec3 const pl = p(l);
+                    if (contains(s, pl, scale))
                         continue;
-                    auto const through_l = smallest_sphere_through(p[i], p[j], p[k], p[l]);
-                    s = through_l ? *through_l : grown_to(s, p[l]);
+                    auto const through_l = smallest_sphere_through(pi, pj, pk, pl);
+                    s = through_l ? *through_l : grown_to(s, pl);
                 }
             }
         }
     }
 
     vec3 const centre = origin + s.centre;
-    return {centre, enclosing_radius(points, centre, s.radius)};
+    return {centre, enclosing_radius(all, centre, s.radius)};
 }
 
 } // namespace kugel::physics

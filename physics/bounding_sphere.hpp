@@ -30,10 +30,14 @@ sphere approximate_bounding_sphere(std::span<vec3 const> points);
 /// The smallest sphere holding every point (Welzl's algorithm; the lecture's remark
 /// "der Algorithmus von Welzl liefert die optimale").
 ///
-/// Iterative: four nested loops over a deterministically shuffled copy, the support set being
-/// at most 4 points, so there is no recursion on the number of points; expected O(n) time and
-/// O(n) extra memory. The shuffle uses a fixed seed and its own index draw, so the order, and
-/// with it the result, is the same with every standard library.
+/// The points are those of `points` followed by those of `more` (a cloud and a few corners,
+/// without copying the cloud).
+///
+/// Iterative: four nested loops over the points in a deterministically shuffled order, the
+/// support set being at most 4 points, so there is no recursion on the number of points;
+/// expected O(n) time, and 4 bytes a point of extra memory (the order). The shuffle uses a
+/// fixed seed and its own index draw, so the order, and with it the result, is the same with
+/// every standard library.
 ///
 /// Accuracy: every point p satisfies (p − centre).norm() <= radius as evaluated in double
 /// (a last pass makes sure of it). The radius exceeds the exact minimum by at most about
@@ -43,6 +47,6 @@ sphere approximate_bounding_sphere(std::span<vec3 const> points);
 /// Degenerate input is handled: an empty span gives radius 0 at the origin; one point, or
 /// copies of one point, give radius 0 at that point; collinear and coplanar points give the
 /// smallest sphere whose centre lies on their line or plane. Points must be finite.
-sphere minimum_bounding_sphere(std::span<vec3 const> points);
+sphere minimum_bounding_sphere(std::span<vec3 const> points, std::span<vec3 const> more = {});
 
 } // namespace kugel::physics

@@ -171,6 +171,26 @@ TEST(MinimumBoundingSphere, NeverLargerThanTheApproximation)
     }
 }
 
+// Points given in two spans (a cloud where it is, and a few corners) are one list, the first's
+// then the second's: the sphere is the same bit for bit as that of one span holding both,
+// wherever the split falls (empty parts included).
+TEST(MinimumBoundingSphere, TwoSpansAreOneList)
+{
+    random_source random(5);
+    std::vector<vec3> points;
+    for (int i = 0; i < 200; ++i)
+        points.push_back(random.in_ball(1.0) + vec3(3.0, -2.0, 1.0));
+    sphere const whole = minimum_bounding_sphere(points);
+    std::span<vec3 const> const all(points);
+    for (std::size_t const split : {0UL, 1UL, 117UL, 199UL, 200UL}) {
+        sphere const parts = minimum_bounding_sphere(all.first(split), all.subspan(split));
+        SCOPED_TRACE(split);
+        EXPECT_EQ(parts.centre, whole.centre);
+        EXPECT_EQ(parts.radius, whole.radius);
+    }
+    expect_contains_all(whole, points);
+}
+
 TEST(BoundingSpheres, EmptyInputGivesRadiusZeroAtOrigin)
 {
     for (sphere const& s : {minimum_bounding_sphere({}), approximate_bounding_sphere({})}) {
