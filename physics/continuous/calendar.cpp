@@ -325,21 +325,29 @@ void calendar::predict_pair(std::uint32_t i, std::uint32_t j)
         push(p->since + *t, event_kind::pair, i, j);
 }
 
-void calendar::predict_walls(std::uint32_t i)
+void calendar::predict_walls(std::uint32_t i, int only_axis)
 {
     if (shapes_[i].inverse_mass == 0.0)
         return;
     sphere const& p = spheres_[i];
+    auto const& c = cell_[i];
     // Only the first wall it reaches: a wall event always starts a new path (handle_wall),
     // so the events of the walls after it would be stale by their time. (A tie goes to the
     // lower wall, the one the queue would take first.)
     double soonest = forever;
     std::uint32_t first = 0;
     for (std::uint32_t k = 0; k < walls_.size(); ++k) {
+        // only the walls of the cells at the box's side it is in: a cell is wider than a
+        // diameter, so a sphere reaches a wall only from the cells beside it, and it is
+        // predicted again when it crosses into them (handle_crossing); in a large box most
+        // spheres then keep no wall event at all
+        side const s = sides_[k];
+        auto const a = static_cast<std::size_t>(s.axis);
+        if ((only_axis >= 0 && s.axis != only_axis) || c[a] != (s.positive ? 0U : dims_[a] - 1U))
+            continue;
         // only the walls it moves towards (n·v < 0, exact for a normal ±e_axis); the gap
         // ±x − d − r, plainly, errs by a few units in the last place of x, within the touching
         // slack (position_slack) that answers the contact when its time comes
-        side const s = sides_[k];
         double const towards = s.positive ? p.v[s.axis] : -p.v[s.axis];
         if (!(towards < 0.0))
             continue;
@@ -452,6 +460,8 @@ void calendar::handle_crossing(event const& e)
         }
         lo[axis] = hi[axis] = up ? c[axis] + 1U : c[axis] - 1U;
         for_each_in_cells(lo, hi, [&](std::uint32_t j) { predict_pair(i, j); });
+    } else {
+        predict_walls(i, static_cast<int>(axis)); // into the cells beside a wall on this axis
     }
     predict_crossing(i);
 }

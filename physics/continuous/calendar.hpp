@@ -110,7 +110,8 @@ private:
     void open_bucket();
     bool current(event const& e) const;
     void predict_pair(std::uint32_t i, std::uint32_t j);
-    void predict_walls(std::uint32_t i);
+    /// The first wall i reaches of those beside its cell (only on `only_axis`, if not −1).
+    void predict_walls(std::uint32_t i, int only_axis = -1);
     void predict_crossing(std::uint32_t i);
     /// After i's path changed: its walls, its crossing and its neighbours but `except`.
     void predict_body(std::uint32_t i, std::uint32_t except);

@@ -18,6 +18,8 @@
 #include <cmath>
 #include <memory>
 #include <random>
+#include <tuple>
+#include <utility>
 
 namespace kugel::physics {
 namespace {
@@ -258,6 +260,45 @@ TEST(ContinuousCalendar, StaticSpheresHold)
     ASSERT_TRUE(slot);
     EXPECT_EQ(w.bodies().velocities()[*slot], vec3(-2.0, 0.0, 0.0));
     EXPECT_EQ(w.collisions().sphere_contacts, 1U);
+}
+
+// The calendar predicts a sphere's walls only in the cells beside them (its cells are wider
+// than a diameter, so no sphere reaches a wall from further in), and again when it crosses
+// into them. A sphere sent from the middle of a box eight cells wide along its diagonal
+// meets the three walls of a corner at once, comes back with its velocity reversed exactly
+// (elastic walls along the axes), and meets the opposite corner. The other spheres are
+// static, well off the diagonal, and only give the calendar its cells. The positions are
+// the analytic ones to 1e-12 m: a path is x + (t − t₀)·v from its last contact, so only a
+// few roundings of numbers below 3 enter.
+TEST(ContinuousCalendar, MeetsWallsFromTheCellsBesideThem)
+{
+    world w(colliding(collision_mode::continuous));
+    add_box(w, 1.0);
+    for (double x : {-0.75, -0.25, 0.25, 0.75})
+        for (double y : {-0.75, -0.25, 0.25, 0.75})
+            for (double z : {-0.75, -0.25, 0.25, 0.75}) {
+                vec3 const p(x, y, z);
+                if ((p - p.dot(vec3::Ones()) / 3.0 * vec3::Ones()).norm() > 0.3) // off the diagonal
+                    w.add_body({p, vec3::Zero(), 1.0, 0.05, 0.0, true});
+            }
+    body_id const moving = w.add_body(ball(vec3::Zero(), vec3::Ones(), 0.05));
+    auto velocity_and_position = [&] {
+        auto const slot = w.bodies().slot_of(moving);
+        return std::pair{w.bodies().velocities()[*slot], w.bodies().positions()[*slot]};
+    };
+    for (int i = 0; i < 120; ++i) // the corner (0.95, 0.95, 0.95) at 0.95 s
+        w.step(1.0 / 60.0);
+    auto [v, x] = velocity_and_position();
+    EXPECT_EQ(v, vec3(-1.0, -1.0, -1.0));
+    EXPECT_LE((x - vec3::Constant(0.95 - 1.05)).cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_EQ(w.collisions().wall_contacts, 3U);
+    for (int i = 0; i < 60; ++i) // the opposite corner at 2.85 s
+        w.step(1.0 / 60.0);
+    std::tie(v, x) = velocity_and_position();
+    EXPECT_EQ(v, vec3(1.0, 1.0, 1.0));
+    EXPECT_LE((x - vec3::Constant(-0.95 + 0.15)).cwiseAbs().maxCoeff(), 1e-12);
+    EXPECT_EQ(w.collisions().wall_contacts, 6U);
+    EXPECT_EQ(w.collisions().sphere_contacts, 0U);
 }
 
 // Pinned as the step-by-step loop is: a change to the calendar's results is made on purpose.
