@@ -34,13 +34,12 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
                         step_timings& timings, parallel_for* loops)
 {
     // Neither mode leaves a sphere inside a wall: discrete mode clamps the spheres it moved,
-    // continuous mode every sphere.
+    // continuous mode every sphere that can be (resolve_continuous).
     if (settings.mode == collision_mode::discrete) {
         resolve_discrete(settings, walls, obstacles, bodies, h, workspace.discrete, stats, timings, loops);
     } else if (settings.mode == collision_mode::continuous) {
         phase_clock clock(timings);
         resolve_continuous(settings, walls, obstacles, bodies, h, workspace, stats, loops);
-        clamp_to_walls(walls, bodies);
         clock.lap(step_phase::continuous);
     }
 }

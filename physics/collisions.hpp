@@ -171,7 +171,8 @@ void resolve_collisions(collision_settings const& settings, std::span<wall const
 /// The continuous mode's step over `bodies` alone (continuous/event_loop.cpp): every contact
 /// in time order along their paths, then each body at the end of the step; past an event cap,
 /// the step finished in discrete mode (in workspace.discrete) and counted in capped_steps.
-/// Bodies may be left inside a wall by rounding: resolve_collisions clamps them.
+/// No sphere is left inside a wall (clamp_to_walls, or the calendar's own clamp of the
+/// spheres beside the walls).
 void resolve_continuous(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats, parallel_for* loops);

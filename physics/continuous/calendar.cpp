@@ -4,6 +4,7 @@
 #include "physics/collisions.hpp"
 #include "physics/continuous/touching.hpp"
 #include "physics/time_of_impact.hpp"
+#include "physics/wall_set.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -466,11 +467,20 @@ void calendar::handle_crossing(event const& e)
     predict_crossing(i);
 }
 
-void calendar::write_positions(collision_bodies const& b, double at) const
+void calendar::write_positions(collision_bodies const& b, double at, bool clamp) const
 {
+    detail::wall_set const walls(walls_);
     for (std::uint32_t i = 0; i < spheres_.size(); ++i) {
-        b.x[slot_[i]] = position(i, at);
-        b.v[slot_[i]] = spheres_[i].v;
+        std::uint32_t const s = slot_[i];
+        b.x[s] = position(i, at);
+        b.v[s] = spheres_[i].v;
+        // Rounding may leave a sphere inside a wall by an ulp, and only one in the cells
+        // beside a wall can be (a cell is wider than a diameter): the clamp every continuous
+        // step ends with (clamp_to_walls), without a pass over the rest.
+        auto const& c = cell_[i];
+        if (clamp && (c[0] == 0U || c[1] == 0U || c[2] == 0U || c[0] + 1U == dims_[0] || c[1] + 1U == dims_[1] ||
+                      c[2] + 1U == dims_[2]))
+            detail::clamp_to_walls(walls, b.x[s], b.v[s], shapes_[i].radius, shapes_[i].inverse_mass);
     }
 }
 
@@ -522,7 +532,7 @@ calendar::outcome calendar::step(collision_settings const& settings, std::span<w
         bool const pair = e.kind() == event_kind::pair;
         if (contacts == settings.max_events_per_step || events_of_[e.body]++ >= settings.max_events_per_body ||
             (pair && events_of_[e.other()]++ >= settings.max_events_per_body)) {
-            write_positions(b, end);
+            write_positions(b, end, false);
             built_ = false;
             return outcome::capped;
         }
@@ -533,7 +543,7 @@ calendar::outcome calendar::step(collision_settings const& settings, std::span<w
             handle_wall(e);
     }
     clock_ = end;
-    write_positions(b, end);
+    write_positions(b, end, true);
     return outcome::done;
 }
 

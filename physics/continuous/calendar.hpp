@@ -43,7 +43,7 @@ class calendar
 public:
     enum class outcome {
         declined, ///< not a world the calendar takes (forces, boxes, open walls): nothing done
-        done,     ///< the step is taken: b.x and b.v hold its end
+        done,     ///< the step is taken: b.x and b.v hold its end, no sphere inside a wall
         capped,   ///< an event cap was reached: b.x and b.v hold every path moved to the step's end
     };
 
@@ -85,7 +85,8 @@ private:
     bool fits(std::span<wall const> walls, collision_bodies const& b);
     void build(collision_bodies const& b);
     bool notice_changes(collision_bodies const& b);
-    void write_positions(collision_bodies const& b, double at) const;
+    /// b.x and b.v at time `at`; with `clamp`, no sphere left inside a wall.
+    void write_positions(collision_bodies const& b, double at, bool clamp) const;
 
     vec3 position(std::uint32_t i, double t) const
     {

@@ -545,6 +545,10 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
         step_timings within_continuous; // counted as the continuous phase's
         resolve_discrete(settings, walls, obstacles, settled, h, workspace.discrete, stats, within_continuous);
     }
+    // Rounding may leave a sphere inside a wall by an ulp; the calendar clamped its spheres
+    // (the few beside a wall) as it wrote them.
+    if (outcome != continuous::calendar::outcome::done)
+        clamp_to_walls(walls, bodies);
 }
 
 } // namespace kugel::physics

@@ -176,7 +176,6 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
         collision_settings one_step = step.settings;
         one_step.event_calendar = false;
         resolve_continuous(one_step, step.walls.all, step.obstacles, swept, h, *sw.events, found, step.loops);
-        clamp_to_walls(step.walls.all, swept);
         bool const capped = found.capped_steps > 0; // finished in discrete mode: not swept to the end
 
         // 4. A swept body whose path (between two of its events) meets the path of a sphere
