@@ -22,10 +22,13 @@ constexpr double forever = std::numeric_limits<double>::infinity();
 /// known to 4e-15 s.
 constexpr double clock_span = 16.0;
 
-/// The event calendar's buckets: a few a step, so that the queue holds few events at a time
-/// (and stays in the nearest cache), and enough of them for a second of steps at 60 Hz.
-constexpr double buckets_per_step = 16.0;
-constexpr std::size_t ring = 64;
+/// The event calendar's buckets: so many a step that a bucket holds about this many events,
+/// so that the queue (a heap) stays small, and a ring of them for this many steps. Events
+/// come about twice as often as cell crossings (bench/README.md): at speed 50 a bucket of
+/// a sixteenth of a step held about 800, and the heap took 16 % of the step.
+constexpr double events_per_bucket = 32.0;
+constexpr double steps_in_ring = 4.0;
+constexpr double fewest_buckets_per_step = 16.0, most_buckets_per_step = 4096.0;
 
 /// Cells are this much wider than the largest diameter, so that a centre filed in a cell a
 /// rounding error off its true one still has every sphere it can touch in a neighbour.
@@ -159,12 +162,20 @@ void calendar::build(collision_bodies const& b)
     planes_.clear();
     for (wall const& w : walls_)
         planes_.push_back(plane_of(w));
+    // Buckets for the events the spheres' speeds promise: each crosses about |v_k|/w_k faces
+    // a second on axis k, and meets others about as often.
+    double crossings = 0.0;
+    for (std::uint32_t s : members_)
+        crossings += b.v0[s].cwiseAbs().dot(inverse_width_);
+    double const per_step =
+        std::clamp(std::isfinite(crossings) ? 2.0 * crossings * h_ / events_per_bucket : most_buckets_per_step,
+                   fewest_buckets_per_step, most_buckets_per_step);
     queue_.clear();
-    later_.resize(ring);
+    later_.resize(static_cast<std::size_t>(std::ceil(per_step * steps_in_ring)));
     for (auto& filed : later_)
         filed.clear();
     latest_.clear();
-    bucket_ = h_ > 0.0 ? h_ / buckets_per_step : 1.0;
+    bucket_ = h_ > 0.0 ? h_ / per_step : 1.0;
     opened_ = 0;
     // Numbered in cell order (a counting sort by cell), each cell's list in that order.
     std::size_t const cells = std::size_t{dims_[0]} * dims_[1] * dims_[2];
