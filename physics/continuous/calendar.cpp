@@ -24,9 +24,10 @@ constexpr double clock_span = 16.0;
 
 /// The event calendar's buckets: so many a step that a bucket holds about this many events,
 /// so that the queue (a heap) stays small, and a ring of them for this many steps. Events
-/// come about twice as often as cell crossings (bench/README.md): at speed 50 a bucket of
-/// a sixteenth of a step held about 800, and the heap took 16 % of the step.
-constexpr double events_per_bucket = 32.0;
+/// come about twice as often as cell crossings. At speed 50 a bucket of a sixteenth of a
+/// step held about 800, and the heap took 16 % of the step; 32 to 256 a bucket measured
+/// the same within the noise (bench/README.md), fewer lists being the lighter.
+constexpr double events_per_bucket = 128.0;
 constexpr double steps_in_ring = 4.0;
 constexpr double fewest_buckets_per_step = 16.0, most_buckets_per_step = 4096.0;
 
