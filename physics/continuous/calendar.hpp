@@ -102,7 +102,7 @@ private:
     void link(std::uint32_t i);
     void unlink(std::uint32_t i);
     template <class F>
-    void for_each_in_cells(std::array<std::uint32_t, 3> const& lo, std::array<std::uint32_t, 3> const& hi, F f) const;
+    void for_each_in_cells(std::array<std::uint32_t, 3> const& lo, std::array<std::uint32_t, 3> const& hi, F f);
 
     void push(double time, event_kind kind, std::uint32_t body, std::uint32_t other);
     std::int64_t bucket_of(double time) const { return static_cast<std::int64_t>(std::floor(time / bucket_)); }
@@ -144,6 +144,7 @@ private:
     std::vector<std::uint32_t> head_;     ///< by cell: the first sphere of its list
     std::vector<std::uint32_t> members_;  ///< scratch: the world's spheres, by slot
     std::vector<std::uint32_t> changed_;  ///< scratch: the paths a command changed
+    std::vector<std::uint32_t> near_;     ///< scratch: the spheres of the cells around one
     /// The events of the buckets opened so far: a min-heap by operator>.
     std::vector<event> queue_;
     /// Later events, filed unsorted by the bucket (a slice of a step, `bucket_` s long) they
