@@ -131,9 +131,9 @@ struct collision_bodies
     /// False when free motion was a drift (a scene without forces): no velocity changed, so
     /// no body accelerated, and v0 may be v itself (read only before v is written).
     bool accelerated = true;
-    /// Discrete mode, without forces: free motion is still to come, a drift x += h·v of every
-    /// body, which the first pass over the bodies makes on its way (x is then the step's start;
-    /// x0 and v0 are not read). Requires accelerated = false.
+    /// Without forces: free motion is still to come, a drift x += h·v of every body, which
+    /// discrete mode's first pass over the bodies makes on its way and continuous mode's paths
+    /// make (x is then the step's start; x0 and v0 are not read). Requires accelerated = false.
     bool drift_pending = false;
     /// Each body's id, by slot (or none): discrete mode under forces finds last step's
     /// support stops by them (discrete/stop_table.hpp), whatever slot each body is in now.

@@ -365,8 +365,12 @@ void world::substeps(double dt)
             move_freely(h);               // forces where the integrator needs them, and the integrator
             break;
         case collision_mode::continuous:
-            keep_start_and_move_freely(h); // the same, keeping where each body's path starts
-            collide(h, false);             // every contact, in time order along those paths
+            if (forces_.empty()) {
+                collide(h, true);              // every contact along straight paths, the drift with them
+            } else {
+                keep_start_and_move_freely(h); // the same, keeping where each body's path starts
+                collide(h, false);             // every contact, in time order along those paths
+            }
             break;
         case collision_mode::discrete:
             if (forces_.empty()) {

@@ -511,12 +511,18 @@ calendar::outcome calendar::step(collision_settings const& settings, std::span<w
                                                  [](wall const& w, auto const& p) { return plane_of(w) == p; });
     bool const same_bodies = built_ && b.ids.size() == ids_.size() && std::equal(b.ids.begin(), b.ids.end(), ids_.begin());
     now_ = clock_;
-    if (!(same_walls && same_bodies && clock_ + h <= clock_span && notice_changes(b))) {
+    // The step's start: x itself while the drift is pending (the paths make it), else x0.
+    collision_bodies start = b;
+    if (b.drift_pending) {
+        start.x0 = b.x;
+        start.v0 = b.v;
+    }
+    if (!(same_walls && same_bodies && clock_ + h <= clock_span && notice_changes(start))) {
         built_ = false;
         walls_ = walls;
-        if (!fits(walls, b))
+        if (!fits(walls, start))
             return outcome::declined;
-        build(b);
+        build(start);
     }
     walls_ = walls;
 

@@ -47,9 +47,10 @@ public:
         capped,   ///< an event cap was reached: b.x and b.v hold every path moved to the step's end
     };
 
-    /// One step of h seconds. b.x0 and b.v0 hold the step's start (a command may have changed
-    /// any body since the last step: those are noticed and predicted again; bodies added,
-    /// removed or reordered start the calendar afresh); b.x and b.v receive its end.
+    /// One step of h seconds. b.x0 and b.v0 hold the step's start, or b.x and b.v with
+    /// b.drift_pending (a command may have changed any body since the last step: those are
+    /// noticed and predicted again; bodies added, removed or reordered start the calendar
+    /// afresh); b.x and b.v receive its end. Declined, it leaves b as it was.
     outcome step(collision_settings const& settings, std::span<wall const> walls, collision_bodies const& b,
                  double h, collision_stats& stats);
 

@@ -531,7 +531,20 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
         kept.forget();
     bool complete = outcome == continuous::calendar::outcome::done;
     if (outcome == continuous::calendar::outcome::declined) {
-        event_loop loop(settings, walls, obstacles, bodies, h, workspace.continuous, stats, loops);
+        // The step-by-step loop wants the step's start and its free motion: the drift, when
+        // it is still to come (a world without forces), made here. The calendar needs neither
+        // (its paths are the drift), so a gas keeps no second copy of every position.
+        std::vector<vec3> start;
+        collision_bodies moved = bodies;
+        if (bodies.drift_pending) {
+            start.assign(bodies.x.begin(), bodies.x.end());
+            for (std::size_t i = 0; i < bodies.x.size(); ++i)
+                bodies.x[i] += h * bodies.v[i];
+            moved.x0 = start;
+            moved.v0 = bodies.v;
+            moved.drift_pending = false;
+        }
+        event_loop loop(settings, walls, obstacles, moved, h, workspace.continuous, stats, loops);
         complete = loop.run();
         loop.finish();
     }
