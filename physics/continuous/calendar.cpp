@@ -196,14 +196,20 @@ void calendar::build(collision_bodies const& b)
         slot_[head_[cell_index(cell_of(b.x0[s]))]++] = s;
     head_.assign(cells, none);
     spheres_.resize(m);
-    shapes_.resize(m);
+    // One shape for all when the spheres are alike (a gas of one kind: 16 bytes a sphere).
+    bool const alike = std::all_of(slot_.begin(), slot_.end(), [&](std::uint32_t s) {
+        return b.radius[s] == b.radius[slot_[0]] && b.inverse_mass[s] == b.inverse_mass[slot_[0]];
+    });
+    shapes_.assign(alike ? 1 : m, shape{});
+    shapes_.shrink_to_fit();
+    shape_mask_ = alike ? 0U : ~0U;
     cell_.resize(m);
     previous_.resize(m);
     events_of_.assign(m, 0);
     for (std::uint32_t i = static_cast<std::uint32_t>(m); i-- > 0;) { // each list in number order
         std::uint32_t const s = slot_[i];
         spheres_[i] = {b.x0[s], b.v0[s], 0.0, 0, none};
-        shapes_[i] = {b.radius[s], b.inverse_mass[s]};
+        shapes_[i & shape_mask_] = {b.radius[s], b.inverse_mass[s]};
         cell_[i] = cell_of(b.x0[s]);
         link(i);
     }
@@ -326,7 +332,7 @@ bool calendar::current(event const& e) const
 
 void calendar::predict_pair(std::uint32_t i, std::uint32_t j)
 {
-    if (shapes_[i].inverse_mass == 0.0 && shapes_[j].inverse_mass == 0.0)
+    if (shape_of(i).inverse_mass == 0.0 && shape_of(j).inverse_mass == 0.0)
         return;
     // From the later of the two paths' starts, that body first (the lower number on a tie):
     // the same event whenever the pair is found.
@@ -337,15 +343,15 @@ void calendar::predict_pair(std::uint32_t i, std::uint32_t j)
         std::swap(p, q);
     }
     vec3 const xq = q->x + (p->since - q->since) * q->v;
-    if (surely_misses(p->x - xq, p->v - q->v, shapes_[i].radius + shapes_[j].radius))
+    if (surely_misses(p->x - xq, p->v - q->v, shape_of(i).radius + shape_of(j).radius))
         return; // most neighbours: no call
-    if (auto t = sphere_time_of_impact(p->x, p->v, shapes_[i].radius, xq, q->v, shapes_[j].radius, forever))
+    if (auto t = sphere_time_of_impact(p->x, p->v, shape_of(i).radius, xq, q->v, shape_of(j).radius, forever))
         push(p->since + *t, event_kind::pair, i, j);
 }
 
 void calendar::predict_walls(std::uint32_t i, int only_axis)
 {
-    if (shapes_[i].inverse_mass == 0.0)
+    if (shape_of(i).inverse_mass == 0.0)
         return;
     sphere const& p = spheres_[i];
     auto const& c = cell_[i];
@@ -369,7 +375,7 @@ void calendar::predict_walls(std::uint32_t i, int only_axis)
         double const towards = s.positive ? p.v[s.axis] : -p.v[s.axis];
         if (!(towards < 0.0))
             continue;
-        double const gap = ((s.positive ? p.x[s.axis] : -p.x[s.axis]) - walls_[k].surface.offset) - shapes_[i].radius;
+        double const gap = ((s.positive ? p.x[s.axis] : -p.x[s.axis]) - walls_[k].surface.offset) - shape_of(i).radius;
         double const t = std::max(p.since + (gap > 0.0 ? gap / -towards : 0.0), now_); // as push() files it
         if (t < soonest) {
             soonest = t;
@@ -429,10 +435,10 @@ void calendar::handle_pair(event const& e)
     vec3 vi = spheres_[i].v, vj = spheres_[j].v;
     vec3 const d = xi - xj;
     double const distance = d.norm();
-    double const reach = shapes_[i].radius + shapes_[j].radius;
+    double const reach = shape_of(i).radius + shape_of(j).radius;
     if (distance <= reach * (1.0 + touching_tolerance) || distance <= reach + position_slack(xi, xj)) {
         vec3 const n = detail::contact_normal(d, distance);
-        if (detail::respond_to_sphere_contact(vi, shapes_[i].inverse_mass, vec3::Zero(), vj, shapes_[j].inverse_mass,
+        if (detail::respond_to_sphere_contact(vi, shape_of(i).inverse_mass, vec3::Zero(), vj, shape_of(j).inverse_mass,
                                               vec3::Zero(), n, *settings_, h_))
             ++stats_->sphere_contacts;
     }
@@ -446,7 +452,7 @@ void calendar::handle_wall(event const& e)
 {
     std::uint32_t const i = e.body;
     wall const& w = walls_[e.other()];
-    double const r = shapes_[i].radius;
+    double const r = shape_of(i).radius;
     body_path p{position(i, e.time), spheres_[i].v, vec3::Zero(), e.time};
     double const height = w.surface.normal.dot(p.x);
     if (height <= w.surface.offset + r + touching_tolerance * r ||
@@ -497,7 +503,7 @@ void calendar::write_positions(collision_bodies const& b, double at, bool clamp)
         auto const& c = cell_[i];
         if (clamp && (c[0] == 0U || c[1] == 0U || c[2] == 0U || c[0] + 1U == dims_[0] || c[1] + 1U == dims_[1] ||
                       c[2] + 1U == dims_[2]))
-            detail::clamp_to_walls(walls, b.x[s], b.v[s], shapes_[i].radius, shapes_[i].inverse_mass);
+            detail::clamp_to_walls(walls, b.x[s], b.v[s], shape_of(i).radius, shape_of(i).inverse_mass);
     }
 }
 

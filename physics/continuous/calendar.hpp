@@ -137,7 +137,9 @@ private:
     // By the calendar's own numbering of the spheres, in cell order when it was built, so
     // that neighbours lie near each other in memory.
     std::vector<sphere> spheres_;
-    std::vector<shape> shapes_;
+    std::vector<shape> shapes_; ///< by number, or one for all (shape_mask_ 0)
+    std::uint32_t shape_mask_ = ~0U;
+    shape const& shape_of(std::uint32_t i) const { return shapes_[i & shape_mask_]; }
     std::vector<std::uint32_t> slot_; ///< the world's slot of each
     std::vector<std::uint32_t> events_of_; ///< contacts in this step, for the per-body cap
     std::vector<std::array<std::uint32_t, 3>> cell_;
