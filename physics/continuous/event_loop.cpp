@@ -534,12 +534,16 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
         // The step-by-step loop wants the step's start and its free motion: the drift, when
         // it is still to come (a world without forces), made here. The calendar needs neither
         // (its paths are the drift), so a gas keeps no second copy of every position.
-        std::vector<vec3> start;
         collision_bodies moved = bodies;
         if (bodies.drift_pending) {
-            start.assign(bodies.x.begin(), bodies.x.end());
-            for (std::size_t i = 0; i < bodies.x.size(); ++i)
-                bodies.x[i] += h * bodies.v[i];
+            std::vector<vec3>& start = workspace.continuous.start;
+            start.resize(bodies.x.size());
+            run_chunks(loops, bodies.x.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+                for (std::size_t i = begin; i < end; ++i) { // x₀ kept on the way: one pass
+                    start[i] = bodies.x[i];
+                    bodies.x[i] += h * bodies.v[i];
+                }
+            });
             moved.x0 = start;
             moved.v0 = bodies.v;
             moved.drift_pending = false;

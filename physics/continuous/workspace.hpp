@@ -28,6 +28,7 @@ struct workspace
     std::vector<std::uint32_t> changed;  ///< by body: when its path last changed, as a count of changes in the step (0: not yet)
     std::vector<std::uint64_t> events_of; ///< by body: events it took part in this step
     std::vector<event> queue;            ///< a min-heap by operator>
+    std::vector<vec3> start;             ///< by body: the step's start, when its drift was pending
     /// Kept only when keep_segments is set (the discrete sweep's): where each body went in the
     /// step, as its paths from one change to the next.
     struct segment
