@@ -6,13 +6,12 @@
 // Snapshots: after each socket's first welcome it says `hello` asking for the compact form
 // (PROTOCOL.md, "Compact snapshots") at the room's snapshot rate. When the page falls behind
 // (more than half a second of the asked rate's frames, at least 4, waiting to be parsed for a
-// whole second) it
-// asks for half the rate, at most once every 3 s and not below 1 Hz; once it has kept up
-// for 10 s (at most one frame waiting at every check) it asks for twice the rate again, up
-// to the room's; a new socket asks for the room's rate again. A compact snapshot that cannot be applied (malformed, or a delta
-// whose base the page does not hold) drops the socket and opens a new one, whose first
-// snapshot is a keyframe, as PROTOCOL.md asks; after 3 such refusals the connection asks for
-// the full form instead, which needs no state. A server that does not grant the compact form
+// whole second) it asks for half the rate, at most once every 3 s and not below 1 Hz; once it
+// has kept up for 10 s (at most one frame waiting at every check) it asks for twice the rate
+// again, up to the room's; a new socket asks for the room's rate again. A compact snapshot
+// that cannot be applied (malformed, or a delta whose base the page does not hold) drops the
+// socket and opens a new one, whose first snapshot is a keyframe, as PROTOCOL.md asks; after
+// 3 such refusals the connection asks for the full form instead, which needs no state. A server that does not grant the compact form
 // (it answers with `"form": "full"`, or not at all) goes on sending the full form, which the
 // page reads as before.
 import { CompactStream } from './compact.js';
