@@ -177,10 +177,9 @@ void calendar::build(collision_bodies const& b)
         std::clamp(std::isfinite(crossings) ? 2.0 * crossings * h_ / events_per_bucket : most_buckets_per_step,
                    fewest_buckets_per_step, most_buckets_per_step);
     queue_.clear();
-    later_.resize(static_cast<std::size_t>(std::ceil(per_step * steps_in_ring)));
-    for (auto& filed : later_)
-        filed.clear();
-    latest_.clear();
+    lists_.clear();
+    later_.assign(static_cast<std::size_t>(std::ceil(per_step * steps_in_ring)), event_lists::empty);
+    latest_ = event_lists::empty;
     bucket_ = h_ > 0.0 ? h_ / per_step : 1.0;
     opened_ = 0;
     // Numbered in cell order (a counting sort by cell), each cell's list in that order.
@@ -293,34 +292,27 @@ void calendar::file(event const& e)
         if (built_)
             std::push_heap(queue_.begin(), queue_.end(), std::greater<>{});
     } else if (bucket - opened_ <= static_cast<std::int64_t>(later_.size())) {
-        later_[static_cast<std::size_t>(bucket) % later_.size()].push_back(e);
+        lists_.push(later_[static_cast<std::size_t>(bucket) % later_.size()], e);
     } else {
-        latest_.push_back(e);
+        lists_.push(latest_, e);
     }
 }
 
 void calendar::open_bucket()
 {
     ++opened_;
-    auto& filed = later_[static_cast<std::size_t>(opened_) % later_.size()];
-    for (event const& e : filed)
+    lists_.take(later_[static_cast<std::size_t>(opened_) % later_.size()], [&](event const& e) {
         if (current(e))
             queue_.push_back(e);
-    filed.clear();
+    });
     std::make_heap(queue_.begin(), queue_.end(), std::greater<>{});
     if (opened_ % static_cast<std::int64_t>(later_.size()) == 0) {
-        // the ring's turn: the events beyond it, filed again, or kept where they are (in
-        // place: a second list as long would be the calendar's largest)
-        std::size_t kept = 0;
-        for (event const& e : latest_) {
-            if (!current(e))
-                continue;
-            if (bucket_of(e.time) - opened_ <= static_cast<std::int64_t>(later_.size()))
+        // the ring's turn: the current events beyond it filed again, into the ring or
+        // back among the latest (their blocks given back as they are read)
+        lists_.take(latest_, [&](event const& e) {
+            if (current(e))
                 file(e);
-            else
-                latest_[kept++] = e;
-        }
-        latest_.resize(kept);
+        });
     }
 }
 

@@ -21,6 +21,7 @@
 
 #include "physics/body_id.hpp"
 #include "physics/continuous/event.hpp"
+#include "physics/continuous/event_lists.hpp"
 #include "physics/vec.hpp"
 
 #include <array>
@@ -154,9 +155,10 @@ private:
     /// fall in: the next `later_.size()` buckets' in a ring, the rest in `latest_`. The queue
     /// takes a bucket when it runs empty, and every ring's turn `latest_` is filed again;
     /// stale events are dropped on the way. So the queue holds few events, and a push costs
-    /// a heap's log only for events due very soon.
-    std::vector<std::vector<event>> later_;
-    std::vector<event> latest_;
+    /// a heap's log only for events due very soon. The lists share one pool of blocks.
+    event_lists lists_;
+    std::vector<event_lists::list> later_;
+    event_lists::list latest_ = event_lists::empty;
     double bucket_ = 1.0;
     std::int64_t opened_ = 0; ///< the last bucket moved into the queue
     vec3 lo_ = vec3::Zero();
