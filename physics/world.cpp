@@ -20,8 +20,10 @@ world::world(world_settings settings) : settings_(settings)
 body_id world::add_body(body_desc const& desc)
 {
     body_id const id = bodies_.add(desc);
-    calm_.push_back(0.0);
-    island_of_.push_back(awake);
+    if (sleep_columns_) {
+        calm_.push_back(0.0);
+        island_of_.push_back(awake);
+    }
     workspace_.invalidate();
     wake_near(desc.position, desc.radius);
     return id;
@@ -34,7 +36,7 @@ bool world::remove_body(body_id id)
         return false;
     // What it carried wakes: its island, and the sleepers it touched (a static sphere is in
     // no island).
-    if (island_of_[*slot] != awake)
+    if (asleep(*slot))
         wake_island(island_of_[*slot]);
     vec3 const x = bodies_.positions()[*slot];
     double const r = bodies_.radii()[*slot];
@@ -42,10 +44,12 @@ bool world::remove_body(body_id id)
     if (reporting_ > 0)
         forget_contacts(id);
     // The storage moved its last body into the hole: so do the sleeping columns.
-    calm_[*slot] = calm_.back();
-    calm_.pop_back();
-    island_of_[*slot] = island_of_.back();
-    island_of_.pop_back();
+    if (sleep_columns_) {
+        calm_[*slot] = calm_.back();
+        calm_.pop_back();
+        island_of_[*slot] = island_of_.back();
+        island_of_.pop_back();
+    }
     wake_near(x, r);
     workspace_.invalidate();
     return true;
@@ -67,7 +71,7 @@ bool world::apply_impulse(body_id id, vec3 const& impulse)
         return false;
     if (!impulse.allFinite())
         throw std::invalid_argument("impulse must be finite");
-    if (island_of_[*slot] != awake)
+    if (asleep(*slot))
         wake_island(island_of_[*slot]);
     // Velocities do not enter the forces, so the cached accelerations stay valid.
     bodies_.velocities()[*slot] += bodies_.inverse_masses()[*slot] * impulse;
@@ -83,9 +87,10 @@ bool world::set_state(body_id id, std::optional<vec3> const& position, std::opti
         throw std::invalid_argument("a body's new position and velocity must be finite");
     if (velocity && bodies_.inverse_masses()[*slot] == 0.0 && !velocity->isZero(0.0))
         throw std::invalid_argument("a static body cannot move: its velocity stays zero");
-    if (island_of_[*slot] != awake)
+    if (asleep(*slot))
         wake_island(island_of_[*slot]);
-    calm_[*slot] = 0.0;
+    if (sleep_columns_)
+        calm_[*slot] = 0.0;
     double const r = bodies_.radii()[*slot];
     if (position) {
         wake_near(bodies_.positions()[*slot], r); // what it carried falls
@@ -256,6 +261,9 @@ void world::sort_bodies_by_cell()
         if (!(radius[i] > 0.0))
             cell_order_.push_back(i);
     bodies_.permute(cell_order_, loops());
+    workspace_.invalidate();
+    if (!sleep_columns_)
+        return;
     std::vector<double> calm(cell_order_.size());
     std::vector<std::uint32_t> island(cell_order_.size());
     for (std::size_t k = 0; k < cell_order_.size(); ++k) {
@@ -264,7 +272,6 @@ void world::sort_bodies_by_cell()
     }
     calm_.swap(calm);
     island_of_.swap(island);
-    workspace_.invalidate();
 }
 
 std::vector<body_id> world::non_finite_bodies() const
@@ -292,6 +299,11 @@ void world::step(double dt)
     if (!std::isfinite(dt) || dt < 0.0)
         throw std::invalid_argument("step dt must be finite and >= 0");
     bool const sleeping = sleeping_applies() && dt > 0.0;
+    if (sleeping && !sleep_columns_) { // the first step that may put bodies to sleep
+        calm_.assign(bodies_.size(), 0.0);
+        island_of_.assign(bodies_.size(), awake);
+        sleep_columns_ = true;
+    }
     sensor_events_.clear();
     contact_events_.clear();
     if (sleeping) { // a step's islands start as one body each

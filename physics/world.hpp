@@ -48,7 +48,7 @@ public:
     /// skips it and contacts take it as static. It wakes, with every body of its island, when
     /// an awake body touches it, when a command changes it (apply_impulse) or a body near it
     /// (add_body, remove_body), or when the world's forces, walls or boxes change.
-    bool asleep(std::size_t slot) const { return island_of_[slot] != awake; }
+    bool asleep(std::size_t slot) const { return sleep_columns_ && island_of_[slot] != awake; }
     /// Bodies asleep now.
     std::size_t sleeping_bodies() const { return sleeping_; }
     /// Wakes every sleeping body.
@@ -250,7 +250,10 @@ private:
     std::vector<std::pair<body_id, body_id>> touching_next_; ///< note_touches' list being made
     std::vector<contact_event> contact_events_; ///< of the last step
     std::vector<contact_event> touches_;        ///< scratch: a substep's touches, as events
-    // Sleeping, by slot (moved with the bodies by remove_body and sort_bodies_by_cell)
+    // Sleeping, by slot (moved with the bodies by remove_body and sort_bodies_by_cell), kept
+    // from the first step sleeping applies to: a world that never sleeps (a gas, any
+    // continuous world) does without them, 12 bytes a body
+    bool sleep_columns_ = false;
     std::vector<double> calm_;              ///< s the body has been slower than sleep_speed
     std::vector<std::uint32_t> island_of_;  ///< its sleeping island's number, or awake
     /// The bodies of each sleeping island, by number − 1 (empty: the number is free)

@@ -188,5 +188,43 @@ TEST(Sleep, NothingSleepsWithoutForcesOrInFreeFall)
     }
 }
 
+// A world keeps its sleeping state only from the first step sleeping applies to (a gas never
+// pays for it). Bodies added and removed before then, and steps without forces, leave a
+// world that sleeps exactly as one built with its forces: the same bits once asleep, and an
+// impulse and a removal after it wake what they should.
+TEST(Sleep, AWorldThatGainsItsForcesLateSleepsAsOneBuiltWithThem)
+{
+    world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
+    s.collisions.restitution = 0.5;
+    s.collisions.friction = 0.5;
+    world late(s);
+    late.add_wall({make_plane(vec3::UnitZ(), 0.0), 0.5, 0.5});
+    double const r = 0.05, m = 1000 * 4.0 / 3.0 * pi * r * r * r;
+    for (int i = 0; i < 10; ++i)
+        late.add_body(ball({0, 0, r + 2 * r * i}, vec3::Zero(), r, m));
+    body_id const extra = late.add_body(ball({5, 5, 5}, vec3::Zero(), r, m));
+    step(late, 3); // at rest without forces, far from the column: nothing moves, nothing sleeps
+    ASSERT_TRUE(late.remove_body(extra)); // the last slot: no body moves into its hole
+    EXPECT_FALSE(late.asleep(0));
+    late.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
+
+    world built = stack_on_the_floor(10, r);
+    step(late, 60);
+    step(built, 60);
+    ASSERT_EQ(late.sleeping_bodies(), 10U);
+    EXPECT_EQ(state_hash(late), state_hash(built));
+    for (std::size_t i = 0; i < 10; ++i)
+        EXPECT_TRUE(late.asleep(i)) << i;
+
+    ASSERT_TRUE(late.apply_impulse(late.bodies().ids()[9], vec3(0, 0, 1e-3)));
+    EXPECT_EQ(late.sleeping_bodies(), 0U) << "an impulse wakes its island";
+    step(late, 60);
+    EXPECT_EQ(late.sleeping_bodies(), 10U);
+    body_id const added = late.add_body(ball({1, 1, r}, vec3::Zero(), r, m)); // after the columns exist
+    EXPECT_FALSE(late.asleep(*late.bodies().slot_of(added)));
+    ASSERT_TRUE(late.remove_body(late.bodies().ids()[0]));
+    EXPECT_EQ(late.sleeping_bodies(), 0U) << "a removed supporter wakes what it carried";
+}
+
 } // namespace
 } // namespace kugel::physics
