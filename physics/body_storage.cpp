@@ -63,6 +63,7 @@ body_id body_storage::add(body_desc const& d)
     masses_.push_back(d.mass);
     charges_.push_back(d.charge);
     ids_.push_back(id);
+    ++layout_;
     return id;
 }
 
@@ -106,6 +107,7 @@ bool body_storage::remove(body_id id)
     // Skip generation 0 on wrap-around: it is the null id.
     entry.generation = entry.generation == 0xffffffffU ? 1U : entry.generation + 1U;
     free_indices_.push_back(id.index);
+    ++layout_;
     return true;
 }
 
@@ -145,6 +147,7 @@ void body_storage::permute(std::span<std::uint32_t const> order, parallel_for* l
     gather(masses_, spare_numbers_, order, loops);
     gather(charges_, spare_numbers_, order, loops);
     gather(ids_, spare_ids_, order, loops);
+    ++layout_;
     run_chunks(loops, n, [&](std::size_t, std::size_t begin, std::size_t end) {
         for (std::size_t k = begin; k < end; ++k)
             sparse_[ids_[k].index].dense = static_cast<std::uint32_t>(k);

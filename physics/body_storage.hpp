@@ -68,6 +68,10 @@ public:
     std::span<double const> radii() const { return radii_; }
     std::span<double const> charges() const { return charges_; }
     std::span<body_id const> ids() const { return ids_; }
+    /// Changes whenever a body is added, removed or moved to another slot, and is never 0:
+    /// while it stays the same, each slot holds the same body (the continuous calendar keeps
+    /// its numbering by it, where it compared every id every step).
+    std::uint64_t layout() const { return layout_; }
 
     /// Rebuilds a body's description from its slot (for checkpoints and tests).
     body_desc describe(std::size_t slot) const;
@@ -91,6 +95,7 @@ private:
     std::vector<body_id> ids_;
 
     std::vector<slot_entry> sparse_;          ///< indexed by body_id::index
+    std::uint64_t layout_ = 1;
     // permute() gathers each quantity into one of these and keeps the old array in its place:
     // a world that sorts its bodies every few steps then reuses the same memory.
     std::vector<vec3> spare_vectors_;

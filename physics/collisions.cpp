@@ -66,11 +66,13 @@ std::optional<double> deepest_pair_overlap(std::span<vec3 const> x, std::span<do
     double largest = 0.0;
     vec3 lo = vec3::Constant(std::numeric_limits<double>::infinity());
     vec3 hi = -lo;
+    std::size_t spheres = 0;
     for (std::size_t i = 0; i < x.size(); ++i) {
         if (!(radius[i] > 0.0))
             continue;
         if (!x[i].allFinite())
             return std::nullopt;
+        ++spheres;
         largest = std::max(largest, radius[i]);
         lo = lo.cwiseMin(x[i]);
         hi = hi.cwiseMax(x[i]);
@@ -100,6 +102,7 @@ std::optional<double> deepest_pair_overlap(std::span<vec3 const> x, std::span<do
         return (c[0] * static_cast<std::uint64_t>(size[1]) + c[1]) * static_cast<std::uint64_t>(size[2]) + c[2];
     };
     filed.clear();
+    filed.reserve(spheres); // as many as there are: grown by doubling, the old and the new were both held
     for (std::size_t i = 0; i < x.size(); ++i)
         if (radius[i] > 0.0)
             filed.push_back({cell_key(x[i]), static_cast<std::uint32_t>(i)});

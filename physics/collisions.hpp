@@ -138,6 +138,9 @@ struct collision_bodies
     /// Each body's id, by slot (or none): discrete mode under forces finds last step's
     /// support stops by them (discrete/stop_table.hpp), whatever slot each body is in now.
     std::span<body_id const> ids = {};
+    /// The slots' layout (body_storage::layout), or 0 when not known: the continuous mode's
+    /// calendar keeps what it predicted only while it stays the same.
+    std::uint64_t layout = 0;
 };
 
 /// Scratch space reused across steps.

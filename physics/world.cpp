@@ -241,7 +241,8 @@ void world::collide(double h, bool drift_pending)
     resolve_collisions(settings_.collisions, walls_, obstacles_,
                        {bodies_.positions(), bodies_.velocities(), step_start_x_,
                         accelerated ? std::span<vec3 const>(step_start_v_) : bodies_.velocities(),
-                        bodies_.inverse_masses(), bodies_.radii(), accelerated, drift_pending, bodies_.ids()},
+                        bodies_.inverse_masses(), bodies_.radii(), accelerated, drift_pending, bodies_.ids(),
+                        bodies_.layout()},
                        h, collision_workspace_, collision_stats_, timings_, loops());
     workspace_.invalidate(); // contacts may have moved bodies
 }

@@ -50,8 +50,8 @@ std::array<double, 4> plane_of(wall const& w)
 
 bool calendar::fits(std::span<wall const> walls, collision_bodies const& b)
 {
-    // Paths straight between contacts, and each body known by its id from step to step.
-    if (b.accelerated || b.ids.size() != b.x0.size())
+    // Paths straight between contacts, and the slots' layout known from step to step.
+    if (b.accelerated || b.layout == 0)
         return false;
     // A closed box: every wall faces along an axis, and each axis has both sides.
     sides_.clear();
@@ -164,7 +164,7 @@ void calendar::build(collision_bodies const& b)
 {
     clock_ = 0.0;
     now_ = 0.0;
-    ids_.assign(b.ids.begin(), b.ids.end());
+    layout_ = b.layout;
     planes_.clear();
     for (wall const& w : walls_)
         planes_.push_back(plane_of(w));
@@ -507,7 +507,7 @@ calendar::outcome calendar::step(collision_settings const& settings, std::span<w
     h_ = h;
     bool const same_walls = built_ && std::equal(walls.begin(), walls.end(), planes_.begin(), planes_.end(),
                                                  [](wall const& w, auto const& p) { return plane_of(w) == p; });
-    bool const same_bodies = built_ && b.ids.size() == ids_.size() && std::equal(b.ids.begin(), b.ids.end(), ids_.begin());
+    bool const same_bodies = built_ && b.layout == layout_;
     now_ = clock_;
     // The step's start: x itself while the drift is pending (the paths make it), else x0.
     collision_bodies start = b;

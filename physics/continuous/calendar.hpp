@@ -19,7 +19,6 @@
 // contact rules); results differ from it in the last bits, since a path is kept from its last
 // change instead of from each step's start.
 
-#include "physics/body_id.hpp"
 #include "physics/continuous/event.hpp"
 #include "physics/continuous/event_lists.hpp"
 #include "physics/vec.hpp"
@@ -134,7 +133,7 @@ private:
     double clock_ = 0.0; ///< s since the calendar was built, at the step's start
     std::vector<side> sides_;
     std::vector<std::array<double, 4>> planes_; ///< the walls it was built for (n, d), to notice a change
-    std::vector<body_id> ids_;         ///< by slot: the bodies it was built for
+    std::uint64_t layout_ = 0;         ///< the slots' layout it was built for (body_storage::layout)
     // By the calendar's own numbering of the spheres, in cell order when it was built, so
     // that neighbours lie near each other in memory.
     std::vector<sphere> spheres_;

@@ -2,6 +2,7 @@
 
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <numbers>
@@ -157,6 +158,39 @@ TEST(BodyStorage, PermuteRefusesWhatIsNotAPermutationAndMovesNothing)
     refuses({0, 1}, "every slot");
     refuses({0, 1, 3}, "beyond the last");
     refuses({0, 2, 2}, "twice");
+}
+
+// The layout number changes with every change of what a slot holds (an addition, a removal,
+// a permutation, a refused one aside) and with nothing else: a body removed and another added
+// in its place leave as many bodies, yet a new layout.
+TEST(BodyStorage, LayoutChangesWhenASlotMayHoldAnotherBody)
+{
+    body_storage bodies;
+    std::vector<std::uint64_t> seen{bodies.layout()};
+    auto const changed = [&] {
+        bool const fresh = std::find(seen.begin(), seen.end(), bodies.layout()) == seen.end();
+        seen.push_back(bodies.layout());
+        return fresh;
+    };
+    EXPECT_NE(bodies.layout(), 0U);
+    body_id const a = bodies.add(at(0));
+    EXPECT_TRUE(changed());
+    bodies.add(at(1));
+    EXPECT_TRUE(changed());
+    bodies.positions()[0].x() = 5.0; // a state, not a slot
+    bodies.velocities()[1].y() = 2.0;
+    EXPECT_FALSE(changed());
+    EXPECT_TRUE(bodies.remove(a));
+    EXPECT_TRUE(changed());
+    EXPECT_FALSE(bodies.remove(a)); // nothing removed
+    EXPECT_FALSE(changed());
+    bodies.add(at(2)); // as many bodies as before the removal
+    EXPECT_TRUE(changed());
+    std::vector<std::uint32_t> const swap{1, 0};
+    bodies.permute(swap);
+    EXPECT_TRUE(changed());
+    EXPECT_THROW(bodies.permute(std::vector<std::uint32_t>{0, 0}), std::invalid_argument);
+    EXPECT_FALSE(changed());
 }
 
 } // namespace
