@@ -71,7 +71,7 @@ bool calendar::fits(std::span<wall const> walls, collision_bodies const& b)
     if (!(below.array() < above.array()).all() || !below.allFinite() || !above.allFinite())
         return false;
     // Spheres of alike sizes, every centre inside the box: cells a largest diameter wide.
-    members_.clear();
+    members_ = 0;
     double largest = 0.0, total = 0.0;
     for (std::uint32_t i = 0; i < b.x0.size(); ++i) {
         double const r = b.radius[i];
@@ -80,11 +80,11 @@ bool calendar::fits(std::span<wall const> walls, collision_bodies const& b)
         if (!((b.x0[i].array() >= below.array()).all() && (b.x0[i].array() <= above.array()).all()) ||
             !b.v0[i].allFinite())
             return false;
-        members_.push_back(i);
+        ++members_;
         largest = std::max(largest, r);
         total += r;
     }
-    if (members_.empty() || largest > 4.0 * total / static_cast<double>(members_.size()))
+    if (members_ == 0 || largest > 4.0 * total / static_cast<double>(members_))
         return false;
     double reach = 2.0 * largest * (1.0 + cell_margin);
     vec3 const extent = above - below;
@@ -92,7 +92,7 @@ bool calendar::fits(std::span<wall const> walls, collision_bodies const& b)
     // diameter (about 5 a sphere). With 4 its cells were 1.2 diameters wide, and each
     // prediction and crossing read more neighbours: 10⁴ spheres 1.81 → 1.72 ms a step,
     // speed 50 7.7 → 7.0 ms (bench/README.md). A dilute gas stops at 8 a sphere.
-    double const most = 8.0 * static_cast<double>(members_.size()) + 64.0;
+    double const most = 8.0 * static_cast<double>(members_) + 64.0;
     for (;;) {
         double cells = 1.0;
         for (int k = 0; k < 3; ++k)
@@ -170,9 +170,14 @@ void calendar::build(collision_bodies const& b)
         planes_.push_back(plane_of(w));
     // Buckets for the events the spheres' speeds promise: each crosses about |v_k|/w_k faces
     // a second on axis k, and meets others about as often.
+    // (The spheres are the bodies of radius > 0, fits() made sure: each is read in place,
+    // in slot order, where a list of them weighed 4 bytes a sphere.)
+    auto const is_sphere = [&](std::uint32_t s) { return b.radius[s] > 0.0; };
+    auto const slots = static_cast<std::uint32_t>(b.x0.size());
     double crossings = 0.0;
-    for (std::uint32_t s : members_)
-        crossings += b.v0[s].cwiseAbs().dot(inverse_width_);
+    for (std::uint32_t s = 0; s < slots; ++s)
+        if (is_sphere(s))
+            crossings += b.v0[s].cwiseAbs().dot(inverse_width_);
     double const per_step =
         std::clamp(std::isfinite(crossings) ? 2.0 * crossings * h_ / events_per_bucket : most_buckets_per_step,
                    fewest_buckets_per_step, most_buckets_per_step);
@@ -184,15 +189,17 @@ void calendar::build(collision_bodies const& b)
     opened_ = 0;
     // Numbered in cell order (a counting sort by cell), each cell's list in that order.
     std::size_t const cells = std::size_t{dims_[0]} * dims_[1] * dims_[2];
-    std::size_t const m = members_.size();
+    std::size_t const m = members_;
     head_.assign(cells + 1, 0);
-    for (std::uint32_t s : members_)
-        ++head_[cell_index(cell_of(b.x0[s])) + 1];
+    for (std::uint32_t s = 0; s < slots; ++s)
+        if (is_sphere(s))
+            ++head_[cell_index(cell_of(b.x0[s])) + 1];
     for (std::size_t c = 0; c < cells; ++c)
         head_[c + 1] += head_[c];
     slot_.resize(m);
-    for (std::uint32_t s : members_)
-        slot_[head_[cell_index(cell_of(b.x0[s]))]++] = s;
+    for (std::uint32_t s = 0; s < slots; ++s)
+        if (is_sphere(s))
+            slot_[head_[cell_index(cell_of(b.x0[s]))]++] = s;
     head_.assign(cells, none);
     spheres_.resize(m);
     // One shape for all when the spheres are alike (a gas of one kind: 16 bytes a sphere).

@@ -145,7 +145,7 @@ private:
     std::vector<std::array<std::uint32_t, 3>> cell_;
     std::vector<std::uint32_t> previous_; ///< the one before in its cell's list
     std::vector<std::uint32_t> head_;     ///< by cell: the first sphere of its list
-    std::vector<std::uint32_t> members_;  ///< scratch: the world's spheres, by slot
+    std::size_t members_ = 0;             ///< the world's spheres (bodies of radius > 0)
     std::vector<std::uint32_t> changed_;  ///< scratch: the paths a command changed
     std::vector<std::uint32_t> near_;     ///< scratch: the spheres of the cells around one
     /// The events of the buckets opened so far: a min-heap by operator>.
