@@ -141,6 +141,13 @@ public:
 
     /// The deepest overlap left between spheres, or a sphere and a wall or box (m).
     double max_overlap() const;
+
+    /// Frees what the collision modes keep from step to step for speed alone (the continuous
+    /// calendar, the discrete grid and support stops): at a run's end, before its summary.
+    /// A later step builds them again, with the same contacts; its bits may differ as after
+    /// a checkpoint (a force-free continuous world's calendar starts afresh, the discrete
+    /// solver starts cold).
+    void release_collision_memory() { collision_workspace_ = collision_workspace{}; }
     /// The bodies whose position or velocity is no longer finite (a step overflowed), in
     /// slot order.
     std::vector<body_id> non_finite_bodies() const;

@@ -229,6 +229,28 @@ TEST(ContinuousCalendar, FollowsCommandsBetweenSteps)
     EXPECT_EQ(kept.bodies().size(), 500U);
 }
 
+// A world whose collision memory was released (at a run's end, before its summary) builds its
+// calendar again at the next step and goes on with the same contacts, to rounding (as after
+// a checkpoint: the tolerance of FollowsCommandsBetweenSteps, for the same gas and steps).
+TEST(ContinuousCalendar, StartsAfreshAfterItsMemoryIsReleased)
+{
+    world kept = gas({.n = 500, .calendar = true});
+    world released = gas({.n = 500, .calendar = true});
+    for (int i = 0; i < 10; ++i) {
+        kept.step(1.0 / 60.0);
+        released.step(1.0 / 60.0);
+    }
+    released.release_collision_memory();
+    for (int i = 0; i < 20; ++i) {
+        kept.step(1.0 / 60.0);
+        released.step(1.0 / 60.0);
+    }
+    EXPECT_LE(largest_difference(kept, released), 1e-9);
+    EXPECT_EQ(released.collisions().sphere_contacts, kept.collisions().sphere_contacts);
+    EXPECT_GT(released.collisions().sphere_contacts, 100U);
+    EXPECT_LE(released.max_overlap(), 1e-9);
+}
+
 // A gas run across several of the calendar's spans (it starts afresh before a step that would
 // end after 16 s of its clock) keeps its energy to rounding and everyone in. Regression: events
 // beyond the span were dropped while the last step before a fresh start still reached past it,
