@@ -52,7 +52,6 @@ body_id body_storage::add(body_desc const& d)
         sparse_.emplace_back();
     }
     slot_entry& entry = sparse_[index];
-    entry.alive = true;
     entry.dense = static_cast<std::uint32_t>(positions_.size());
     body_id const id{index, entry.generation};
 
@@ -72,7 +71,7 @@ std::optional<std::size_t> body_storage::slot_of(body_id id) const
     if (id.index >= sparse_.size())
         return std::nullopt;
     slot_entry const& entry = sparse_[id.index];
-    if (!entry.alive || entry.generation != id.generation)
+    if (entry.dense == slot_entry::dead || entry.generation != id.generation)
         return std::nullopt;
     return entry.dense;
 }
@@ -103,7 +102,7 @@ bool body_storage::remove(body_id id)
     ids_.pop_back();
 
     slot_entry& entry = sparse_[id.index];
-    entry.alive = false;
+    entry.dense = slot_entry::dead;
     // Skip generation 0 on wrap-around: it is the null id.
     entry.generation = entry.generation == 0xffffffffU ? 1U : entry.generation + 1U;
     free_indices_.push_back(id.index);

@@ -77,11 +77,12 @@ public:
     body_desc describe(std::size_t slot) const;
 
 private:
+    /// 8 bytes: no flag beside the slot, which is `dead` while no body has this index.
     struct slot_entry
     {
-        std::uint32_t generation = 1; ///< of the body in (or last in) this id index
-        std::uint32_t dense = 0;      ///< its dense slot while alive
-        bool alive = false;
+        static constexpr std::uint32_t dead = 0xffffffffU; ///< beyond any slot (most_bodies)
+        std::uint32_t generation = 1;    ///< of the body in (or last in) this id index
+        std::uint32_t dense = dead;      ///< its dense slot while alive
     };
 
     // Hot: read every step.
