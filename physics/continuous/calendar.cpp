@@ -93,17 +93,22 @@ bool calendar::fits(std::span<wall const> walls, collision_bodies const& b)
     // prediction and crossing read more neighbours: 10⁴ spheres 1.81 → 1.72 ms a step,
     // speed 50 7.7 → 7.0 ms (bench/README.md). A dilute gas stops at 8 a sphere.
     double const most = 8.0 * static_cast<double>(members_) + 64.0;
+    // (At most 65,535 on an axis, so that a cell's coordinates fit 6 bytes: a longer box
+    // gets wider cells along it.)
+    auto const cells_on = [&](int k) {
+        return std::clamp(std::floor(extent[k] / reach), 1.0, static_cast<double>(most_cells_on_an_axis));
+    };
     for (;;) {
         double cells = 1.0;
         for (int k = 0; k < 3; ++k)
-            cells *= std::max(std::floor(extent[k] / reach), 1.0);
+            cells *= cells_on(k);
         if (cells <= most)
             break;
         reach *= std::max(std::cbrt(cells / most), 1.0 + 1e-6);
     }
     for (int k = 0; k < 3; ++k) {
         auto const a = static_cast<std::size_t>(k);
-        double const count = std::max(std::floor(extent[k] / reach), 1.0);
+        double const count = cells_on(k);
         dims_[a] = static_cast<std::uint32_t>(count);
         width_[k] = extent[k] / count;
         inverse_width_[k] = 1.0 / width_[k];
@@ -112,13 +117,15 @@ bool calendar::fits(std::span<wall const> walls, collision_bodies const& b)
     return true;
 }
 
-std::array<std::uint32_t, 3> calendar::cell_of(vec3 const& x) const
+calendar::cell_coordinates calendar::cell_of(vec3 const& x) const
 {
-    std::array<std::uint32_t, 3> c{};
+    cell_coordinates c{};
     for (int k = 0; k < 3; ++k) {
         auto const a = static_cast<std::size_t>(k);
         double const u = std::floor((x[k] - lo_[k]) * inverse_width_[k]);
-        c[a] = u <= 0.0 ? 0U : u >= static_cast<double>(dims_[a] - 1U) ? dims_[a] - 1U : static_cast<std::uint32_t>(u);
+        c[a] = static_cast<std::uint16_t>(u <= 0.0                                   ? 0U
+                                          : u >= static_cast<double>(dims_[a] - 1U) ? dims_[a] - 1U
+                                                                                   : static_cast<std::uint32_t>(u));
     }
     return c;
 }
@@ -154,7 +161,7 @@ void calendar::for_each_in_cells(std::array<std::uint32_t, 3> const& lo, std::ar
     for (std::uint32_t z = lo[2]; z <= hi[2]; ++z)
         for (std::uint32_t y = lo[1]; y <= hi[1]; ++y)
             for (std::uint32_t x = lo[0]; x <= hi[0]; ++x)
-                for (std::uint32_t j = head_[cell_index({x, y, z})]; j != none; j = spheres_[j].next)
+                for (std::uint32_t j = head_[cell_index(std::array<std::uint32_t, 3>{x, y, z})]; j != none; j = spheres_[j].next)
                     near_.push_back(j);
     for (std::uint32_t j : near_)
         f(j);
@@ -470,7 +477,7 @@ void calendar::handle_crossing(event const& e)
     auto const axis = static_cast<std::size_t>(e.other() / 2U);
     bool const up = (e.other() & 1U) != 0U;
     unlink(i);
-    cell_[i][axis] = up ? cell_[i][axis] + 1U : cell_[i][axis] - 1U;
+    cell_[i][axis] = static_cast<std::uint16_t>(up ? cell_[i][axis] + 1U : cell_[i][axis] - 1U);
     link(i);
     // The layer of cells that came into reach, one beyond the new cell along the axis.
     auto const& c = cell_[i];

@@ -95,11 +95,16 @@ private:
         return s.x + (t - s.since) * s.v;
     }
     void repath(std::uint32_t i, vec3 const& x, vec3 const& v, double t);
-    std::uint32_t cell_index(std::array<std::uint32_t, 3> const& c) const
+    /// A cell by its coordinates, at most `most_cells_on_an_axis` on each axis: 6 bytes.
+    using cell_coordinates = std::array<std::uint16_t, 3>;
+    static constexpr std::uint32_t most_cells_on_an_axis = 0xffffU;
+
+    template <class T>
+    std::uint32_t cell_index(std::array<T, 3> const& c) const
     {
         return c[0] + dims_[0] * (c[1] + dims_[1] * c[2]);
     }
-    std::array<std::uint32_t, 3> cell_of(vec3 const& x) const;
+    cell_coordinates cell_of(vec3 const& x) const;
     void link(std::uint32_t i);
     void unlink(std::uint32_t i);
     template <class F>
@@ -142,7 +147,7 @@ private:
     shape const& shape_of(std::uint32_t i) const { return shapes_[i & shape_mask_]; }
     std::vector<std::uint32_t> slot_; ///< the world's slot of each
     std::vector<std::uint32_t> events_of_; ///< contacts in this step, for the per-body cap
-    std::vector<std::array<std::uint32_t, 3>> cell_;
+    std::vector<cell_coordinates> cell_;
     std::vector<std::uint32_t> previous_; ///< the one before in its cell's list
     std::vector<std::uint32_t> head_;     ///< by cell: the first sphere of its list
     std::size_t members_ = 0;             ///< the world's spheres (bodies of radius > 0)
