@@ -332,8 +332,7 @@ void calendar::open_bucket()
 
 bool calendar::current(event const& e) const
 {
-    return spheres_[e.body].version == e.body_version &&
-           (e.kind() != event_kind::pair || spheres_[e.other()].version == e.other_version);
+    return spheres_[e.body].version + (e.kind() == event_kind::pair ? spheres_[e.other()].version : 0U) == e.versions;
 }
 
 void calendar::predict_pair(std::uint32_t i, std::uint32_t j)

@@ -10,7 +10,8 @@
 
 #include <array>
 #include <cstdint>
-#include <deque>
+#include <memory>
+#include <vector>
 
 namespace kugel::physics::continuous {
 
@@ -23,12 +24,12 @@ public:
 
     void push(list& l, event const& e)
     {
-        if (l == empty || blocks_[l].count == block_size) {
+        if (l == empty || at(l).count == block_size) {
             list const fresh = take_block();
-            blocks_[fresh].next = l;
+            at(fresh).next = l;
             l = fresh;
         }
-        block& b = blocks_[l];
+        block& b = at(l);
         b.events[b.count++] = e;
     }
 
@@ -37,56 +38,66 @@ public:
     template <class F>
     void take(list& l, F f)
     {
-        list at = l;
+        list from = l;
         l = empty;
-        while (at != empty) {
-            for (std::uint32_t k = 0; k < blocks_[at].count; ++k)
-                f(event(blocks_[at].events[k])); // a copy: f may move the pool's blocks
-            list const next = blocks_[at].next;
-            give_back(at);
-            at = next;
-        }
-    }
+        while (from != empty) {
+            block const& b = at(from);
+            for (std::uint32_t k = 0; k < b.count; ++k)
+                f(b.events[k]);
+            list const next = b.next;
+            give_back(from);
+            from = next;
+        }    }
 
     /// Blocks taken from the system so far: the most the lists ever held at once, in blocks.
-    std::size_t blocks() const { return blocks_.size(); }
+    std::size_t blocks() const { return blocks_; }
 
     /// Every list is empty after this (their handles must be reset to `empty`).
     void clear()
     {
-        blocks_.clear();
+        chunks_.clear();
+        blocks_ = 0;
         free_ = empty;
     }
 
+    /// Events a block holds: 25, and the block's link and count, in 508 bytes.
+    static constexpr std::uint32_t block_size = 25;
+
 private:
-    /// 512 bytes: 21 events and the block's link and count.
-    static constexpr std::uint32_t block_size = 21;
     struct block
     {
         std::array<event, block_size> events;
         list next;
         std::uint32_t count;
     };
+    static_assert(sizeof(block) <= 512);
+    /// Blocks come in chunks of this many (32 KB): a block apiece would cost an allocation's
+    /// header each, 4 % more.
+    static constexpr std::uint32_t chunk_blocks = 64;
+
+    block& at(list b) { return chunks_[b / chunk_blocks][b % chunk_blocks]; }
 
     list take_block()
     {
         list b = free_;
         if (b != empty) {
-            free_ = blocks_[b].next;
+            free_ = at(b).next;
         } else {
-            b = static_cast<list>(blocks_.size());
-            blocks_.emplace_back(); // a deque: the others stay where they are, no copy of all
+            if (blocks_ % chunk_blocks == 0) // a chunk more: the others stay where they are
+                chunks_.push_back(std::make_unique_for_overwrite<block[]>(chunk_blocks));
+            b = blocks_++;
         }
-        blocks_[b].count = 0;
+        at(b).count = 0;
         return b;
     }
     void give_back(list b)
     {
-        blocks_[b].next = free_;
+        at(b).next = free_;
         free_ = b;
     }
 
-    std::deque<block> blocks_;
+    std::vector<std::unique_ptr<block[]>> chunks_;
+    std::uint32_t blocks_ = 0;
     list free_ = empty;
 };
 

@@ -328,8 +328,7 @@ private:
 
     bool current(event const& e) const
     {
-        return ws_.version[e.body] == e.body_version &&
-               (e.kind() != event_kind::pair || ws_.version[e.other()] == e.other_version);
+        return ws_.version[e.body] + (e.kind() == event_kind::pair ? ws_.version[e.other()] : 0U) == e.versions;
     }
 
     void predict_pair(std::uint32_t i, std::uint32_t j, double now, std::vector<event>* into = nullptr)

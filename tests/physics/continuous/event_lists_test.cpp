@@ -44,7 +44,7 @@ TEST(EventLists, EveryEventComesOutOfItsOwnListOnce)
         EXPECT_EQ(e.time, 7.0);
         EXPECT_EQ(e.kind(), event_kind::crossing);
         EXPECT_EQ(e.other(), 1U);
-        EXPECT_EQ(e.body_version, 7U);
+        EXPECT_EQ(e.versions, 7U);
     });
 }
 
@@ -76,7 +76,7 @@ TEST(EventLists, BlocksGivenBackAreUsedAgain)
         ASSERT_EQ(out.size(), 300U);
         EXPECT_EQ(out.front(), 1000U * static_cast<std::uint32_t>(round));
     }
-    EXPECT_LE(lists.blocks(), 300U / 21U + 1U);
+    EXPECT_LE(lists.blocks(), (300U + event_lists::block_size - 1U) / event_lists::block_size);
 }
 
 } // namespace
