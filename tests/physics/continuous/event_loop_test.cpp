@@ -251,6 +251,47 @@ TEST(ContinuousCalendar, StartsAfreshAfterItsMemoryIsReleased)
     EXPECT_LE(released.max_overlap(), 1e-9);
 }
 
+// A box far longer on one axis than the others: its cells along that axis would number more
+// than the 65,535 a sphere's cell coordinates hold (6 bytes), so they are made wider. 10,000
+// spheres of radius 1 mm in a tube 3.9 mm across and 200 m long (cells of a diameter would
+// be 100,000 along it; the cap of 8 cells a sphere leaves 80,064), moving along its axis
+// (head-on contacts of equal masses, which magnify no rounding: a tube with sideways motion
+// too bounces each sphere off its sides hundreds of times a second, and the two loops part
+// by chaos): every contact is still the step-by-step loop's, to the rounding
+// FollowsCommandsBetweenSteps allows, and no sphere leaves the tube or overlaps another.
+TEST(ContinuousCalendar, ALongBoxGetsWiderCellsAlongIt)
+{
+    auto tube = [](bool calendar) {
+        world_settings s = colliding(collision_mode::continuous, integrator_kind::velocity_verlet);
+        s.collisions.event_calendar = calendar;
+        world w(s);
+        double const across = 0.00195, along = 100.0, r = 0.001;
+        for (int axis = 0; axis < 3; ++axis)
+            for (double sign : {1.0, -1.0}) {
+                vec3 n = vec3::Zero();
+                n[axis] = sign;
+                w.add_wall({make_plane(n, axis == 2 ? -along : -across), 0.0, 0.0});
+            }
+        std::mt19937_64 rng(5);
+        auto unit = [&] { return static_cast<double>(rng() >> 11U) * 0x1.0p-53 - 0.5; };
+        for (int i = 0; i < 10000; ++i)
+            w.add_body(ball({0.0, 0.0, -along + 0.02 * (i + 0.5)}, {0.0, 0.0, 2.0 * unit()}, r, 1.0));
+        return w;
+    };
+    world stepwise = tube(false), kept = tube(true);
+    for (int i = 0; i < 10; ++i) {
+        stepwise.step(1.0 / 60.0);
+        kept.step(1.0 / 60.0);
+    }
+    EXPECT_GT(kept.collisions().sphere_contacts, 1000U);
+    EXPECT_GT(kept.collisions().wall_contacts, 0U); // the tube's two ends
+    EXPECT_EQ(kept.collisions().sphere_contacts, stepwise.collisions().sphere_contacts);
+    EXPECT_EQ(kept.collisions().wall_contacts, stepwise.collisions().wall_contacts);
+    EXPECT_LE(largest_difference(stepwise, kept), 1e-9);
+    EXPECT_EQ(kept.escaped(), 0U);
+    EXPECT_LE(kept.max_overlap(), 1e-9);
+}
+
 // A gas run across several of the calendar's spans (it starts afresh before a step that would
 // end after 16 s of its clock) keeps its energy to rounding and everyone in. Regression: events
 // beyond the span were dropped while the last step before a fresh start still reached past it,
