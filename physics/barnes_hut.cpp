@@ -268,6 +268,8 @@ void tree_coulomb::add_forces(body_storage const& bodies, std::span<vec3 const> 
                               std::span<vec3> forces) const
 {
     auto const q = bodies.charges();
+    if (q.empty())
+        return; // no charges: no field
     charge_trees const trees(q, x, theta_);
     for (source_tree const* targets : {&trees.positive, &trees.negative}) {
         for (std::size_t const i : targets->bodies()) {
@@ -286,6 +288,8 @@ std::optional<addition_refusal> tree_coulomb::check_addition(body_storage const&
                                                              body_desc const& candidate,
                                                              addition_limits const& limits) const
 {
+    if (bodies.charges().empty())
+        return std::nullopt; // no charges yet: no pair has a force
     return check_inverse_square_addition(name(), -k_, softening_, bodies.charges(), candidate.charge,
                                          bodies, candidate, limits);
 }
@@ -293,6 +297,8 @@ std::optional<addition_refusal> tree_coulomb::check_addition(body_storage const&
 double tree_coulomb::potential_energy(body_storage const& bodies, std::span<vec3 const> x) const
 {
     auto const q = bodies.charges();
+    if (q.empty())
+        return 0.0;
     charge_trees const trees(q, x, theta_);
     double sum = 0.0;
     for (source_tree const* targets : {&trees.positive, &trees.negative}) {

@@ -60,7 +60,12 @@ body_id body_storage::add(body_desc const& d)
     inverse_masses_.push_back(d.is_static ? 0.0 : 1.0 / d.mass);
     radii_.push_back(d.radius);
     masses_.push_back(d.mass);
-    charges_.push_back(d.charge);
+    if (!charges_.empty()) {
+        charges_.push_back(d.charge);
+    } else if (d.charge != 0.0) { // the first charge: the others carry none
+        charges_.assign(positions_.size() - 1, 0.0);
+        charges_.push_back(d.charge);
+    }
     ids_.push_back(id);
     ++layout_;
     return id;
@@ -89,7 +94,8 @@ bool body_storage::remove(body_id id)
         inverse_masses_[hole] = inverse_masses_[last];
         radii_[hole] = radii_[last];
         masses_[hole] = masses_[last];
-        charges_[hole] = charges_[last];
+        if (!charges_.empty())
+            charges_[hole] = charges_[last];
         ids_[hole] = ids_[last];
         sparse_[ids_[hole].index].dense = static_cast<std::uint32_t>(hole);
     }
@@ -98,7 +104,8 @@ bool body_storage::remove(body_id id)
     inverse_masses_.pop_back();
     radii_.pop_back();
     masses_.pop_back();
-    charges_.pop_back();
+    if (!charges_.empty())
+        charges_.pop_back();
     ids_.pop_back();
 
     slot_entry& entry = sparse_[id.index];
@@ -144,7 +151,8 @@ void body_storage::permute(std::span<std::uint32_t const> order, parallel_for* l
     gather(inverse_masses_, spare_numbers_, order, loops);
     gather(radii_, spare_numbers_, order, loops);
     gather(masses_, spare_numbers_, order, loops);
-    gather(charges_, spare_numbers_, order, loops);
+    if (!charges_.empty())
+        gather(charges_, spare_numbers_, order, loops);
     gather(ids_, spare_ids_, order, loops);
     ++layout_;
     run_chunks(loops, n, [&](std::size_t, std::size_t begin, std::size_t end) {
@@ -160,7 +168,8 @@ void body_storage::reserve(std::size_t n)
     inverse_masses_.reserve(n);
     radii_.reserve(n);
     masses_.reserve(n);
-    charges_.reserve(n);
+    if (!charges_.empty())
+        charges_.reserve(n);
     ids_.reserve(n);
     sparse_.reserve(n);
 }
@@ -168,7 +177,7 @@ void body_storage::reserve(std::size_t n)
 body_desc body_storage::describe(std::size_t slot) const
 {
     return {positions_[slot], velocities_[slot], masses_[slot],
-            radii_[slot],     charges_[slot],    inverse_masses_[slot] == 0.0};
+            radii_[slot],     charge(slot),    inverse_masses_[slot] == 0.0};
 }
 
 } // namespace kugel::physics

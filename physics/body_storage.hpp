@@ -66,7 +66,10 @@ public:
     std::span<double const> masses() const { return masses_; }
     std::span<double const> inverse_masses() const { return inverse_masses_; }
     std::span<double const> radii() const { return radii_; }
+    /// Every body's charge by slot, or nothing while no body has carried one (every charge
+    /// 0: a world without charges keeps no column of them, 8 bytes a body).
     std::span<double const> charges() const { return charges_; }
+    double charge(std::size_t slot) const { return charges_.empty() ? 0.0 : charges_[slot]; }
     std::span<body_id const> ids() const { return ids_; }
     /// Changes whenever a body is added, removed or moved to another slot, and is never 0:
     /// while it stays the same, each slot holds the same body (the continuous calendar keeps
@@ -92,7 +95,7 @@ private:
     std::vector<double> radii_;         ///< m, >= 0
     // Read by force models and diagnostics.
     std::vector<double> masses_;  ///< kg
-    std::vector<double> charges_; ///< C
+    std::vector<double> charges_; ///< C; empty until a body carries a charge
     std::vector<body_id> ids_;
 
     std::vector<slot_entry> sparse_;          ///< indexed by body_id::index

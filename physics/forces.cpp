@@ -175,6 +175,8 @@ void coulomb::add_forces(body_storage const& bodies, std::span<vec3 const> x,
                          std::span<vec3> forces) const
 {
     auto const q = bodies.charges();
+    if (q.empty())
+        return; // no charges: every pair's coupling is 0, which adds nothing
     add_inverse_square_forces(name(), softening_, bodies, x, forces,
                               [&](std::size_t i, std::size_t j) { return -k_ * q[i] * q[j]; });
 }
@@ -183,6 +185,8 @@ std::optional<addition_refusal> coulomb::check_addition(body_storage const& bodi
                                                         body_desc const& candidate,
                                                         addition_limits const& limits) const
 {
+    if (bodies.charges().empty())
+        return std::nullopt; // no charges yet: no pair has a force
     return check_inverse_square_addition(name(), -k_, softening_, bodies.charges(), candidate.charge,
                                          bodies, candidate, limits);
 }
@@ -190,6 +194,8 @@ std::optional<addition_refusal> coulomb::check_addition(body_storage const& bodi
 double coulomb::potential_energy(body_storage const& bodies, std::span<vec3 const> x) const
 {
     auto const q = bodies.charges();
+    if (q.empty())
+        return 0.0;
     return inverse_square_potential(name(), softening_, bodies, x, [&](std::size_t i, std::size_t j) {
         return k_ * q[i] * q[j];
     });

@@ -1273,8 +1273,12 @@ protocol::snapshot room::copy_snapshot() const
         }
     }
     columns.mass.emplace(bodies.masses().begin(), bodies.masses().end()); // for J = m·Δv
-    if (send_charges_)
-        columns.charge.emplace(bodies.charges().begin(), bodies.charges().end());
+    if (send_charges_) {
+        if (bodies.charges().empty())
+            columns.charge.emplace(n, 0.0); // no body carries a charge
+        else
+            columns.charge.emplace(bodies.charges().begin(), bodies.charges().end());
+    }
     if (!tag_of_wire_id_.empty()) { // the column only when some body has a tag
         columns.tag.emplace(n);
         for (std::size_t i = 0; i < n; ++i)

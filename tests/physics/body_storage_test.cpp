@@ -193,5 +193,43 @@ TEST(BodyStorage, LayoutChangesWhenASlotMayHoldAnotherBody)
     EXPECT_FALSE(changed());
 }
 
+// A storage keeps no column of charges until a body carries one: then every body has its
+// charge (0 for the others), through removals and permutations, and a description gives it.
+TEST(BodyStorage, ChargesAreKeptOnceABodyCarriesOne)
+{
+    body_storage bodies;
+    for (int i = 0; i < 3; ++i)
+        bodies.add(at(i));
+    EXPECT_TRUE(bodies.charges().empty());
+    EXPECT_EQ(bodies.charge(1), 0.0);
+    EXPECT_EQ(bodies.describe(2).charge, 0.0);
+
+    body_desc charged = at(3);
+    charged.charge = -2.5;
+    body_id const q = bodies.add(charged);
+    ASSERT_EQ(bodies.charges().size(), 4U);
+    EXPECT_EQ(bodies.charges()[0], 0.0);
+    EXPECT_EQ(bodies.charges()[3], -2.5);
+
+    EXPECT_TRUE(bodies.remove(bodies.ids()[0])); // the charged body moves into slot 0
+    ASSERT_EQ(bodies.charges().size(), 3U);
+    EXPECT_EQ(bodies.charge(*bodies.slot_of(q)), -2.5);
+    std::vector<std::uint32_t> const order{2, 0, 1};
+    bodies.permute(order);
+    EXPECT_EQ(bodies.charge(*bodies.slot_of(q)), -2.5);
+    EXPECT_EQ(bodies.describe(*bodies.slot_of(q)).charge, -2.5);
+    double total = 0.0;
+    for (double const c : bodies.charges())
+        total += c;
+    EXPECT_EQ(total, -2.5) << "the others carry none";
+    bodies.add(at(5)); // after the column exists, an uncharged body gets its 0 there
+    EXPECT_EQ(bodies.charges().size(), 4U);
+
+    body_storage first; // the very first body charged
+    first.add(charged);
+    ASSERT_EQ(first.charges().size(), 1U);
+    EXPECT_EQ(first.charges()[0], -2.5);
+}
+
 } // namespace
 } // namespace kugel::physics
