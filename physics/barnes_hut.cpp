@@ -288,8 +288,6 @@ std::optional<addition_refusal> tree_coulomb::check_addition(body_storage const&
                                                              body_desc const& candidate,
                                                              addition_limits const& limits) const
 {
-    if (bodies.charges().empty())
-        return std::nullopt; // no charges yet: no pair has a force
     return check_inverse_square_addition(name(), -k_, softening_, bodies.charges(), candidate.charge,
                                          bodies, candidate, limits);
 }

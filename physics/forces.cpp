@@ -94,6 +94,8 @@ std::optional<addition_refusal> check_inverse_square_addition(
     double candidate_strength, body_storage const& bodies, body_desc const& candidate,
     addition_limits const& limits)
 {
+    if (strength.empty())
+        return std::nullopt; // 0 for every body: no pair has a force
     double const eps2 = softening * softening;
     double const inverse_mass = candidate.is_static ? 0.0 : 1.0 / candidate.mass;
     auto const x = bodies.positions();
@@ -185,8 +187,6 @@ std::optional<addition_refusal> coulomb::check_addition(body_storage const& bodi
                                                         body_desc const& candidate,
                                                         addition_limits const& limits) const
 {
-    if (bodies.charges().empty())
-        return std::nullopt; // no charges yet: no pair has a force
     return check_inverse_square_addition(name(), -k_, softening_, bodies.charges(), candidate.charge,
                                          bodies, candidate, limits);
 }

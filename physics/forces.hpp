@@ -160,7 +160,8 @@ private:
 
 /// check_addition of a 1/r² law whose coupling of bodies a and b is
 /// constant · strength[a] · strength[b] (gravity: G and the masses; Coulomb: −k and the
-/// charges), `candidate_strength` the candidate's.
+/// charges), `candidate_strength` the candidate's. An empty `strength` is 0 for every body
+/// (body_storage::charges before any body carries one): nothing is refused.
 std::optional<addition_refusal> check_inverse_square_addition(
     std::string_view model, double constant, double softening, std::span<double const> strength,
     double candidate_strength, body_storage const& bodies, body_desc const& candidate,

@@ -47,7 +47,8 @@ public:
             list const next = b.next;
             give_back(from);
             from = next;
-        }    }
+        }
+    }
 
     /// Blocks taken from the system so far: the most the lists ever held at once, in blocks.
     std::size_t blocks() const { return blocks_; }
