@@ -596,15 +596,21 @@ test('the game: two pages play at once, each pushes its own ball into the goal w
   }
 });
 
-/** The bytes/s the HUD shows, as a number. */
-async function hud_bytes_per_second() {
-  const text = await page.locator('#hud-bytes-rate').textContent();
+/**
+ * The bytes/s the HUD shows, as a number (rate), the page's clock when it was read (at, s),
+ * and the bytes the page had counted at the HUD's last update (bytes). Read a little after
+ * the HUD's next update: a page that was busy for seconds still shows the rate from before
+ * until its overdue update runs.
+ */
+async function hud_bytes_reading() {
+  const [text, at, bytes] = await page.evaluate(() => new Promise((resolve) => setTimeout(() =>
+    resolve([document.getElementById('hud-bytes-rate').textContent, performance.now() / 1000, window.kugel.state.bytes_received]), 300)));
   const match = text.match(/^([\d.]+) (B|kB|MB)\/s$/);
   if (!match) {
     const s = await state();
     assert.fail(`the HUD shows "${text}" as bytes received; connection ${s.connection}, welcomes ${s.welcomes}, refused ${JSON.stringify(s.refused)}`);
   }
-  return Number(match[1]) * { B: 1, kB: 1e3, MB: 1e6 }[match[2]];
+  return { rate: Number(match[1]) * { B: 1, kB: 1e3, MB: 1e6 }[match[2]], at, bytes };
 }
 
 /** A room's counters from the server's /metrics: {name: value} for the lines labelled with the room. */
@@ -637,32 +643,38 @@ test('a 10,000-body room at the room\'s snapshot rate in the compact form: every
   const window_snapshots = 60;
   const start_at = performance.now() / 1000;
   const start = await state();
-  const hud_samples = [];
+  const hud_samples = [await hud_bytes_reading()];
   let end = start;
   while ((end.snapshots_read < start.snapshots_read + window_snapshots || performance.now() / 1000 - start_at < 6) && performance.now() / 1000 - start_at < 4 * wait_seconds) {
-    await new Promise((r) => setTimeout(r, 500));
-    hud_samples.push(await hud_bytes_per_second());
+    await new Promise((r) => setTimeout(r, 200));
+    hud_samples.push(await hud_bytes_reading());
     end = await state();
   }
   const seconds = performance.now() / 1000 - start_at;
   const read = end.snapshots_read - start.snapshots_read;
-  const page_rate = (end.bytes_received - start.bytes_received) / seconds;
-  // What the server wrote to the page's socket since it started (the page is the room's only
+  // On the page's clock, between the HUD's first and last readings: the bytes it counted.
+  const first = hud_samples[0];
+  const last = hud_samples[hud_samples.length - 1];
+  const page_rate = (last.bytes - first.bytes) / (last.at - first.at);
+  // What the server handed to the page's socket since it started (the page is the room's only
   // client, and this page load its only connection): every snapshot of it read in the end.
+  // The counter counts a snapshot when it is handed to the socket; one replaced unsent (the
+  // dropped counter) was never handed, so it is not in it and not subtracted.
   const counters = await room_metrics('gas');
-  const written = counters['kugel_messages_out_total:snapshot'] - counters.kugel_snapshots_dropped_total;
+  const written = counters['kugel_messages_out_total:snapshot'];
   const caught_up = await wait_for(`the page to read the ${written} snapshots the server wrote to it`, (kugel, n) => kugel.state.snapshots_read >= n && kugel.state, written);
   const chromium = frames_received.slice(frames_at_load).reduce((sum, f) => sum + f.bytes, 0);
   const biggest = Math.max(...frames_received.slice(frames_at_load).map((f) => f.bytes));
   const report = `${read} snapshots read in ${seconds.toFixed(1)} s (${end.keyframes - start.keyframes} keyframes); since the start the server wrote ${written}, ` +
     `dropped ${counters.kugel_snapshots_dropped_total} for a slow reader, skipped ${counters.kugel_snapshots_skipped_total} while encoding, over ${caught_up.tick} ticks; ` +
-    `bytes: server ${counters.kugel_bytes_out_total}, Chromium ${chromium}, page ${caught_up.bytes_received}; page ${page_rate.toPrecision(3)} B/s, HUD ${hud_samples.map((b) => b.toPrecision(3)).join(', ')} B/s`;
+    `bytes: server ${counters.kugel_bytes_out_total}, Chromium ${chromium}, page ${caught_up.bytes_received}; page ${page_rate.toPrecision(3)} B/s, HUD ${hud_samples.map((h) => `${h.rate.toPrecision(3)} at ${h.at.toFixed(1)} s`).join(', ')} B/s`;
   console.log(`# ${report}`);
   // Compact, at the room's rate: granted, and the page did not have to ask for less.
   assert.equal(end.snapshots.form, 'compact');
   assert.equal(end.snapshots.rate, start.room_snapshot_rate, report);
   assert.equal(end.asked_rate, start.room_snapshot_rate, report);
   assert.ok(read >= window_snapshots, report);
+  assert.ok(written >= read, report); // the page read no snapshot the server did not hand it
   // (Snapshots the server dropped while the page was busy starting, or skipped while it
   // encoded on a machine the browser keeps busy, are in the report, not asserted: neither
   // is the page's reading.)
@@ -672,7 +684,11 @@ test('a 10,000-body room at the room\'s snapshot rate in the compact form: every
   // their way), and its HUD shows about what it read per second.
   assert.ok(Math.abs(caught_up.bytes_received - counters.kugel_bytes_out_total) <= 4 * biggest, report);
   assert.ok(Math.abs(caught_up.bytes_received - chromium) <= 4 * biggest, report);
-  const mean_hud = hud_samples.reduce((a, b) => a + b, 0) / hud_samples.length;
+  // Each reading is the rate over about the second before it, so the readings are weighted
+  // by the time since the one before: a page busy for seconds is read once after it, and that
+  // reading stands for those seconds.
+  const weighted = hud_samples.slice(1).reduce((sum, h, i) => sum + h.rate * (h.at - hud_samples[i].at), 0);
+  const mean_hud = weighted / (last.at - first.at);
   assert.ok(mean_hud > 0.5 * page_rate && mean_hud < 2 * page_rate, `HUD ${mean_hud} B/s against ${page_rate} B/s read; ${report}`);
   await screenshot('gas');
 });
