@@ -404,6 +404,8 @@ window.kugel = {
   },
   /** How many spheres the last frame drew. */
   drawn: () => view.spheres?.count ?? 0,
+  /** The spheres the last frame drew, as drawn: {id, position, radius}. */
+  shown: () => view.shown(),
   /** Where a world point appears on the page, in CSS pixels. */
   screen_of: (x, y, z) => view.screen_of(x, y, z),
   /** The id of the sphere drawn under a point of the page (CSS pixels), or null. */

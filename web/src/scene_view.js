@@ -190,6 +190,23 @@ export class SceneView {
     this.frame = frame;
   }
 
+  /**
+   * The spheres the last set_bodies drew, read back from the instance matrices the GPU draws
+   * from: {id, position (x, y, z each), radius}.
+   */
+  shown() {
+    const count = this.spheres?.count ?? 0;
+    const matrices = this.spheres?.instanceMatrix.array;
+    const shown = { id: [], position: [], radius: [] };
+    for (let i = 0; i < count; i++) {
+      const m = 16 * i;
+      shown.id.push(this.frame.id[i]);
+      shown.position.push(matrices[m + 12], matrices[m + 13], matrices[m + 14]);
+      shown.radius.push(matrices[m]);
+    }
+    return shown;
+  }
+
   /** Makes room for `count` spheres: a new InstancedMesh of twice the size when full. */
   reserve(count) {
     if (count <= this.capacity) return;

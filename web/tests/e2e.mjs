@@ -56,6 +56,8 @@ const scene_files = {
   arena: join(web, '..', 'scenes', 'arena.json'),
   open: join(web, 'tests', 'open.json'), // no walls: nothing for a click to land on
   game: join(web, '..', 'scenes', 'game.json'), // the game mode's pitch
+  pile: join(web, '..', 'scenes', 'pile.json'), // 500 spheres dropped into a box: a pile
+  obstacles: join(web, '..', 'scenes', 'obstacles.json'), // 300 spheres onto ramps and a floor
 };
 
 /** Starts kugel-server with rooms (room name -> scene file); resolves once it logs its port. */
@@ -593,6 +595,53 @@ test('the game: two pages play at once, each pushes its own ball into the goal w
   } finally {
     for (const p of players) await p.page.close();
     await stop_server(game_server);
+  }
+});
+
+test('the scenes that pile up come to rest on the page: every sphere still, drawn where it lies, none sunk into another', async () => {
+  // A server of its own with the two scenes that pile up in discrete mode (both asleep after
+  // about 7 s of their time, run headless); the page watches each until the newest snapshot
+  // shows every sphere still. In the compact form the page asks for: the full snapshots a
+  // socket gets before its hello is answered hold the exact doubles, the compact ones the
+  // same positions to the quantum, so the first compact one may differ from them.
+  const pile_server = await start_server(0, { pile: scene_files.pile, obstacles: scene_files.obstacles });
+  try {
+    for (const [room, count] of [['pile', 500], ['obstacles', 300]]) {
+      await page.goto(`http://127.0.0.1:${pile_server.port}/?room=${room}`);
+      const still = await wait_for(`every sphere of room "${room}" still in the page's newest snapshot, and all ${count} drawn`, (kugel, { room, n }) => {
+        const s = kugel.latest();
+        return kugel.state.room === room && kugel.state.form === 'compact' && s && s.id.length === n && kugel.drawn() === n && s.velocity.every((v) => v === 0) && s;
+      }, { room, n: count }, 4 * wait_seconds);
+      const quantum = (await state()).snapshots.position_quantum ?? 0;
+      // A second later the world has ticked on, and nothing has moved: the same positions in
+      // the newest snapshot, and the last frame drew exactly those (to the float32 of the
+      // instance matrices, 6e-8 of a coordinate: 1e-6 m is ample in boxes a few metres wide).
+      await new Promise((r) => setTimeout(r, 1000));
+      const { later, shown } = await page.evaluate(() => ({ later: window.kugel.latest(), shown: window.kugel.shown() }));
+      assert.ok(later.tick > still.tick, `${room}: the tick moved on (${still.tick} -> ${later.tick})`);
+      assert.deepEqual(later.id, still.id, room);
+      assert.deepEqual(later.position, still.position, `${room}: a sphere moved while at rest`);
+      assert.deepEqual(shown.id, later.id, room);
+      const drawn_off = Math.max(...shown.position.map((x, k) => Math.abs(x - later.position[k])));
+      assert.ok(drawn_off <= 1e-6, `${room}: a sphere drawn ${drawn_off} m from where the snapshot has it`);
+      // No sphere sunk into another by more than the issue's bound, 0.05 of the smaller
+      // radius, plus what the snapshot's quantum can add to a distance (half a quantum in
+      // each of three coordinates of two centres: sqrt(3) quanta).
+      const radius = shown.radius;
+      let deepest = 0;
+      for (let i = 0; i < count; i++) {
+        for (let j = i + 1; j < count; j++) {
+          const d = Math.hypot(...[0, 1, 2].map((a) => later.position[3 * i + a] - later.position[3 * j + a]));
+          deepest = Math.max(deepest, (radius[i] + radius[j] - d) / Math.min(radius[i], radius[j]));
+        }
+      }
+      const bound = 0.05 + Math.sqrt(3) * quantum / Math.min(...radius);
+      assert.ok(deepest <= bound, `${room}: spheres overlap by ${deepest} of a radius (at most ${bound})`);
+      await screenshot(room);
+    }
+  } finally {
+    await page.goto('about:blank');
+    await stop_server(pile_server);
   }
 });
 
