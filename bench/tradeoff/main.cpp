@@ -31,7 +31,7 @@ int main(int argc, char** argv)
     app.add_option("--command", header.command, "the command named in the report")->capture_default_str();
     app.add_flag("--quick", quick, "tiny sizes and few settings: a smoke run, seconds");
     app.add_option("--only", only, "run only these problems (projectile, kepler, kepler_eccentric, close_encounter, "
-                                   "coulomb, bounce, cradle, gas, tree_error, tree_scaling)");
+                                   "coulomb, bounce, cradle, gas, pile, tree_error, tree_scaling)");
     CLI11_PARSE(app, argc, argv);
 
     problem_options options;
@@ -42,7 +42,7 @@ int main(int argc, char** argv)
     std::vector<std::pair<std::string, std::function<study(problem_options const&)>>> const problems{
         {"projectile", projectile}, {"kepler", kepler}, {"kepler_eccentric", kepler_eccentric},
         {"close_encounter", close_encounter}, {"coulomb", coulomb_scattering},
-        {"bounce", bounce},         {"cradle", cradle}, {"gas", gas},
+        {"bounce", bounce},         {"cradle", cradle}, {"gas", gas},         {"pile", pile},
         {"tree_error", tree_error}, {"tree_scaling", tree_scaling}};
     for (auto const& name : only)
         if (std::none_of(problems.begin(), problems.end(), [&](auto const& p) { return p.first == name; })) {

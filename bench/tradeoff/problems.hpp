@@ -22,6 +22,7 @@ study coulomb_scattering(problem_options const& options);
 study bounce(problem_options const& options);
 study cradle(problem_options const& options);
 study gas(problem_options const& options);
+study pile(problem_options const& options);
 study tree_error(problem_options const& options);
 study tree_scaling(problem_options const& options);
 
