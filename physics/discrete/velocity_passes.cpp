@@ -198,10 +198,6 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
         if (moving[upper].inverse_mass == 0.0)
             continue;
         vec3& v = moving[upper].v;
-        vec3 const still = vec3::Zero();
-        auto const velocity_of = [&](std::uint32_t lower) -> vec3 const& {
-            return lower == discrete_workspace::a_wall ? still : moving[lower].v;
-        };
         stops.clear();
         for (std::size_t e = first; e < last; ++e) {
             auto const& o = order[e];
@@ -220,7 +216,7 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
                 continue; // a bounce: the passes answer it
             if (closing <= -allowed) // it ends the step on the lower one
                 supported[upper] = 1;
-            stops.push_back({n, allowed, lower, step.settings.friction, remembered ? ws.moving_id[lower] : 0});
+            stops.push_back({n, allowed, moving[lower].v, step.settings.friction, remembered ? ws.moving_id[lower] : 0});
         }
         // The walls it touches and does not hang from: each a stop, with the wall's friction by
         // Coulomb's law, so that a sphere pressed against a side wall by the pile can rest there
@@ -237,7 +233,7 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
                 double const closing = v.dot(n);
                 if (resting_only && -closing * (1.0 - wall_w.damping) >= detail::resting_threshold(step.settings, a, a, step.h))
                     continue; // a bounce: the passes answer it
-                stops.push_back({n, 0.0, discrete_workspace::a_wall, wall_w.friction, w});
+                stops.push_back({n, 0.0, vec3::Zero(), wall_w.friction, w});
             }
         }
         double const tolerance = 0x1p-20 * ws.moving_acceleration[upper].norm() * step.h;
@@ -259,7 +255,7 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
         for (int sweep = 0; sweep < most_sweeps && !stops.empty(); ++sweep) {
             double largest = 0.0;
             for (auto& stop : stops) {
-                vec3 const& lower_v = velocity_of(stop.lower);
+                vec3 const& lower_v = stop.lower_v;
                 double const closing = (v - lower_v).dot(stop.n);
                 double const pushed = std::max(stop.pushed - stop.allowed - closing, 0.0);
                 v += (pushed - stop.pushed) * stop.n;

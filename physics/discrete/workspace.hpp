@@ -12,7 +12,6 @@
 #include "physics/vec.hpp"
 
 #include <cstdint>
-#include <limits>
 #include <memory>
 #include <vector>
 
@@ -133,13 +132,12 @@ struct discrete_workspace
     {
         vec3 n;                          ///< unit normal, from the lower sphere to it
         double allowed;                  ///< m/s of approach it may keep
-        std::uint32_t lower;             ///< position in `moving`, or a_wall
+        vec3 lower_v;                    ///< the lower sphere's velocity, held still meanwhile (a wall: 0)
         double mu;                       ///< Coulomb's friction coefficient here
         std::uint64_t lower_id;          ///< the lower body's id number, or the wall's index
         double pushed = 0.0;             ///< m/s, the normal change summed over the sweeps
         vec3 friction = vec3::Zero();    ///< m/s, the tangential change summed likewise
     };
-    static constexpr std::uint32_t a_wall = std::numeric_limits<std::uint32_t>::max(); ///< a stop's lower
     std::vector<support_stop> support_stops;
     /// The stops' sums of the last step and of this one, by their bodies' ids (warm starting)
     discrete::stop_table last_stops, stops;
