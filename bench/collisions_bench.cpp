@@ -29,13 +29,8 @@ world gas(collision_mode mode, std::int64_t n, bool mixed = false, bool calendar
     world w(settings);
     double const r = 0.05;
     double const side = std::cbrt(static_cast<double>(n) * 4.0 / 3.0 * std::numbers::pi * r * r * r / 0.1);
-    for (int axis = 0; axis < 3; ++axis) {
-        for (double sign : {1.0, -1.0}) {
-            vec3 normal = vec3::Zero();
-            normal[axis] = sign;
-            w.add_wall({make_plane(normal, -side / 2), 0.0, 0.0});
-        }
-    }
+    for (wall const& boundary : box_walls({vec3::Constant(-side / 2), vec3::Constant(side / 2)}, 0.0, 0.0))
+        w.add_wall(boundary);
     auto const per_axis = static_cast<std::int64_t>(std::ceil(std::cbrt(static_cast<double>(n))));
     double const spacing = side / static_cast<double>(per_axis);
     std::mt19937_64 rng(1);

@@ -28,6 +28,18 @@ std::optional<collision_mode> collision_mode_from_name(std::string_view name)
 
 std::string_view name(collision_mode mode) { return mode_names[static_cast<std::size_t>(mode)]; }
 
+std::vector<wall> box_walls(aabb const& region, double damping, double friction)
+{
+    std::vector<wall> walls;
+    for (int axis = 0; axis < 3; ++axis) {
+        vec3 n = vec3::Zero();
+        n[axis] = 1.0;
+        walls.push_back({make_plane(n, region.min[axis]), damping, friction});
+        walls.push_back({make_plane(-n, -region.max[axis]), damping, friction});
+    }
+    return walls;
+}
+
 void resolve_collisions(collision_settings const& settings, std::span<wall const> walls,
                         std::span<obstacle const> obstacles, collision_bodies const& bodies,
                         double h, collision_workspace& workspace, collision_stats& stats,

@@ -31,6 +31,10 @@ struct wall
     double friction = 0.0;
 };
 
+/// The six walls of a box (region.min < region.max on every axis), normals pointing in: on
+/// each axis the wall at min, then the one at max. A scene's `box` is these.
+std::vector<wall> box_walls(aabb const& region, double damping, double friction);
+
 /// A static box that spheres bounce off, with the same response rule as a wall.
 struct obstacle
 {

@@ -339,14 +339,7 @@ std::vector<physics::wall> read_box(json const& value, location const& at, physi
         (at / "max").fail("must be > min on every axis");
     double const damping = optional_field(value, "damping", at, 0.0, unit_interval);
     double const friction = optional_field(value, "friction", at, 0.0, unit_interval);
-    std::vector<physics::wall> walls;
-    for (int axis = 0; axis < 3; ++axis) {
-        physics::vec3 n = physics::vec3::Zero();
-        n[axis] = 1.0;
-        walls.push_back({physics::make_plane(n, region.min[axis]), damping, friction});
-        walls.push_back({physics::make_plane(-n, -region.max[axis]), damping, friction});
-    }
-    return walls;
+    return physics::box_walls(region, damping, friction);
 }
 
 /// A sensor: a name and exactly one of `box` {min, max} or `ball` {centre, radius}; the

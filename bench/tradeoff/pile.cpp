@@ -35,15 +35,8 @@ world make_pile(int n, int substeps, int velocity_iterations, bool sleep)
     world w(settings);
     w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
     double const half = 0.63 * std::sqrt(static_cast<double>(n) / 1000.0); // the floor's half side
-    for (int axis = 0; axis < 3; ++axis) {
-        for (double const sign : {1.0, -1.0}) {
-            vec3 normal = vec3::Zero();
-            normal[axis] = sign;
-            double const offset =
-                axis < 2 ? -half : (sign > 0 ? 0.0 : -4.0); // floor at 0, lid at 4 m
-            w.add_wall({make_plane(normal, offset), 0.5, 0.5});
-        }
-    }
+    for (wall const& boundary : box_walls({vec3(-half, -half, 0.0), vec3(half, half, 4.0)}, 0.5, 0.5))
+        w.add_wall(boundary); // the floor at 0, a lid at 4 m
     auto const per_row = static_cast<int>(std::ceil(std::sqrt(static_cast<double>(n) / 10.0)));
     double const spacing = 2.0 * (half - 0.03) / per_row;
     double const mass = 4.0 / 3.0 * std::numbers::pi * radius * radius * radius * density;

@@ -101,6 +101,24 @@ std::vector<double> apexes(collision_mode mode, double alpha, int bounces, doubl
     return out;
 }
 
+// A box's six walls face in: a point inside is above each (n·x − d > 0) by its distance to
+// that face, a point outside is below one; each wall carries the given damping and friction.
+TEST(BoxWalls, FaceInwardOnEveryAxisAtTheRegionsFaces)
+{
+    aabb const region{vec3(-1.0, 0.0, 2.0), vec3(3.0, 0.5, 6.0)};
+    auto const walls = box_walls(region, 0.25, 0.75);
+    ASSERT_EQ(walls.size(), 6U);
+    vec3 const inside(0.0, 0.125, 5.0);
+    std::array<double, 6> const distance{1.0, 3.0, 0.125, 0.375, 3.0, 1.0}; // min x, max x, min y, ...
+    for (std::size_t k = 0; k < walls.size(); ++k) {
+        EXPECT_EQ(walls[k].surface.normal.dot(inside) - walls[k].surface.offset, distance[k]) << "wall " << k;
+        EXPECT_EQ(walls[k].damping, 0.25);
+        EXPECT_EQ(walls[k].friction, 0.75);
+    }
+    vec3 const outside(0.0, 0.125, 7.0); // above the top
+    EXPECT_LT(walls[5].surface.normal.dot(outside) - walls[5].surface.offset, 0.0);
+}
+
 // Continuous mode finds each contact on the exact parabola, so the apex after bounce k is
 // exactly (1−α)^(2k) of the drop height: 1e-9 relative is rounding over thousands of steps.
 TEST(Bounce, ApexHeightsShrinkByOneMinusAlphaSquaredPerBounce)
