@@ -40,6 +40,7 @@ export class ByteRate {
     this.window = window; // s
     this.total = 0; // every byte added
     this.readings = []; // [local s, total], oldest first
+    this.since = null; // the reading the last rate was measured from: [local s, total]
   }
 
   add(bytes) {
@@ -51,7 +52,9 @@ export class ByteRate {
     this.readings.push([now, this.total]);
     while (this.readings.length > 1 && now - this.readings[1][0] >= this.window) this.readings.shift();
     const [then, total] = this.readings[0];
-    return now - then >= this.window ? (this.total - total) / (now - then) : null;
+    if (now - then < this.window) return null;
+    this.since = this.readings[0];
+    return (this.total - total) / (now - then);
   }
 }
 

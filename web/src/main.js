@@ -55,6 +55,8 @@ const state = {
   asked_rate: null, // Hz: the snapshot rate the page asked for
   bytes_per_second: null, // this page's WebSocket bytes received, over the last second
   bytes_received: 0, // this page's WebSocket bytes received since it joined the room
+  bytes_rate_since: null, // [local s, bytes received]: where bytes_per_second was measured from
+  hud_at: null, // local s (performance.now): when the HUD and the counts above were last updated
   snapshots_read: 0, // snapshots turned into columns since the page opened
   keyframes: 0, // compact keyframes among them
   deltas: 0, // compact deltas among them
@@ -359,8 +361,10 @@ function update_hud() {
   state.frames_per_second = frame_times.length;
   state.rtt_ms = connection?.rtt_ms ?? null;
   state.bytes_per_second = connection ? connection.bytes.per_second(now) : null;
+  state.bytes_rate_since = connection?.bytes.since ?? null;
   state.bytes_received = connection?.bytes.total ?? 0;
   state.asked_rate = connection?.asked_rate ?? null;
+  state.hud_at = now;
   hud.update(state);
   const mode = colour_mode.value;
   hud.set_legend(mode, mode === 'charge' ? charge_scale : speed_scale.max);

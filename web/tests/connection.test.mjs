@@ -293,6 +293,7 @@ test('bytes per second: what was read since the reading about a second ago', () 
   assert.equal(rate.per_second(10.5), null);
   rate.add(500);
   assert.equal(rate.per_second(11.0), 1500, 'since 10.0 s');
+  assert.deepEqual(rate.since, [10.0, 0]);
   assert.equal(rate.per_second(11.5), 500, 'since 10.5 s');
   // A page that drew for 3 s and then read 3 s of frames at once: averaged over the 3 s.
   rate.add(3000);
