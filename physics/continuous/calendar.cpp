@@ -157,12 +157,18 @@ void calendar::for_each_in_cells(std::array<std::uint32_t, 3> const& lo, std::ar
     // The spheres listed first, then offered: the walk along the lists reads each sphere
     // while the next cells' reads are still on their way, where a prediction between two
     // reads made each wait for its own (10⁵ spheres: the neighbours' reads missed the cache).
+    // Each row of cells along x is contiguous in head_: its index is found once.
     near_.clear();
+    std::uint32_t const row_length = hi[0] - lo[0] + 1U;
     for (std::uint32_t z = lo[2]; z <= hi[2]; ++z)
-        for (std::uint32_t y = lo[1]; y <= hi[1]; ++y)
-            for (std::uint32_t x = lo[0]; x <= hi[0]; ++x)
-                for (std::uint32_t j = head_[cell_index(std::array<std::uint32_t, 3>{x, y, z})]; j != none; j = spheres_[j].next)
+        for (std::uint32_t y = lo[1]; y <= hi[1]; ++y) {
+            std::uint32_t const* const row = head_.data() + cell_index(std::array<std::uint32_t, 3>{lo[0], y, z});
+            if (row_length == 3U && (row[0] & row[1] & row[2]) == none)
+                continue; // most rows of three are empty: one test (`none` is all ones)
+            for (std::uint32_t x = 0; x < row_length; ++x)
+                for (std::uint32_t j = row[x]; j != none; j = spheres_[j].next)
                     near_.push_back(j);
+        }
     for (std::uint32_t j : near_)
         f(j);
 }
