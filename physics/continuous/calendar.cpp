@@ -364,8 +364,10 @@ void calendar::predict_walls(std::uint32_t i, int only_axis)
 {
     if (shape_of(i).inverse_mass == 0.0)
         return;
-    sphere const& p = spheres_[i];
     auto const& c = cell_[i];
+    if (!at_a_side(c))
+        return; // most spheres: no wall beside their cell (the test of every wall below)
+    sphere const& p = spheres_[i];
     // Only the first wall it reaches: a wall event always starts a new path (handle_wall),
     // so the events of the walls after it would be stale by their time. (A tie goes to the
     // lower wall, the one the queue would take first.)
@@ -511,9 +513,7 @@ void calendar::write_positions(collision_bodies const& b, double at, bool clamp)
         // Rounding may leave a sphere inside a wall by an ulp, and only one in the cells
         // beside a wall can be (a cell is wider than a diameter): the clamp every continuous
         // step ends with (clamp_to_walls), without a pass over the rest.
-        auto const& c = cell_[i];
-        if (clamp && (c[0] == 0U || c[1] == 0U || c[2] == 0U || c[0] + 1U == dims_[0] || c[1] + 1U == dims_[1] ||
-                      c[2] + 1U == dims_[2]))
+        if (clamp && at_a_side(cell_[i]))
             detail::clamp_to_walls(walls, b.x[s], b.v[s], shape_of(i).radius, shape_of(i).inverse_mass);
     }
 }

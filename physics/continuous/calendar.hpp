@@ -105,6 +105,12 @@ private:
         return c[0] + dims_[0] * (c[1] + dims_[1] * c[2]);
     }
     cell_coordinates cell_of(vec3 const& x) const;
+    /// A cell at one of the box's sides, the only cells from which a sphere can reach a wall.
+    bool at_a_side(cell_coordinates const& c) const
+    {
+        return c[0] == 0U || c[1] == 0U || c[2] == 0U || c[0] + 1U == dims_[0] || c[1] + 1U == dims_[1] ||
+               c[2] + 1U == dims_[2];
+    }
     void link(std::uint32_t i);
     void unlink(std::uint32_t i);
     template <class F>
