@@ -403,26 +403,31 @@ void calendar::predict_crossing(std::uint32_t i)
 {
     sphere const& p = spheres_[i];
     auto const& c = cell_[i];
-    double soonest = forever;
-    std::uint32_t face = 0;
+    // The three faces' times first, then the soonest: the divisions overlap. Compared as each
+    // came, every comparison waited for its division and its branch often went the other way.
+    std::array<double, 3> t{};
     for (int k = 0; k < 3; ++k) {
         auto const a = static_cast<std::size_t>(k);
         double const v = p.v[k];
-        double boundary = 0.0;
-        if (v > 0.0 && c[a] + 1U < dims_[a])
-            boundary = lo_[k] + static_cast<double>(c[a] + 1U) * width_[k];
-        else if (v < 0.0 && c[a] > 0U)
-            boundary = lo_[k] + static_cast<double>(c[a]) * width_[k];
-        else
-            continue;
-        double const t = (boundary - p.x[k]) / v;
-        if (t < soonest) {
-            soonest = t;
-            face = 2U * static_cast<std::uint32_t>(k) + (v > 0.0 ? 1U : 0U);
-        }
+        bool const up = v > 0.0;
+        bool const open = up ? c[a] + 1U < dims_[a] : v < 0.0 && c[a] > 0U;
+        double const boundary = lo_[k] + static_cast<double>(c[a] + (up ? 1U : 0U)) * width_[k];
+        double const time = (boundary - p.x[k]) / (open ? v : 1.0);
+        t[a] = open ? time : forever;
+    }
+    std::uint32_t axis = 0;
+    double soonest = t[0];
+    if (t[1] < soonest) {
+        soonest = t[1];
+        axis = 1;
+    }
+    if (t[2] < soonest) {
+        soonest = t[2];
+        axis = 2;
     }
     if (soonest < forever)
-        push(p.since + std::max(soonest, 0.0), event_kind::crossing, i, face);
+        push(p.since + std::max(soonest, 0.0), event_kind::crossing, i,
+             2U * axis + (p.v[static_cast<int>(axis)] > 0.0 ? 1U : 0U));
 }
 
 void calendar::predict_body(std::uint32_t i, std::uint32_t except)
