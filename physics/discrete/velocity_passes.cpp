@@ -3,6 +3,7 @@
 #include "passes.hpp"
 
 #include <algorithm>
+#include <utility>
 
 namespace kugel::physics::discrete {
 
@@ -113,11 +114,20 @@ void copy_contact_spheres(step_context const& step, free_accelerations free_a, d
 /// which lies against the pair's acceleration; the upper sphere's depth along its own
 /// acceleration orders them (the deepest first), and keeps each sphere's contacts together.
 /// Positions do not change in the velocity passes: one order serves every support pass.
+///
+/// The upper spheres are sorted, not the contacts (a sphere's contacts share its depth): a
+/// sphere rests on about three, and a sort of the contacts took 9 % of a forming pile's
+/// step. Each sphere's contacts then follow in the order they were listed, by slab and
+/// place in it, as the sort of the contacts had them.
 void order_support(discrete_workspace& ws)
 {
     sphere_grid const& grid = ws.grid;
-    auto& order = ws.support_order;
-    order.clear();
+    auto& listed = ws.support_scratch;
+    auto& uppers = ws.support_uppers;
+    auto& count = ws.support_count;
+    listed.clear();
+    uppers.clear();
+    count.assign(ws.moving.size(), 0);
     for (std::uint32_t s = 0; s < ws.slabs.size(); ++s) {
         contact_slab const& slab = ws.slabs[s];
         for (std::uint32_t k = 0; k < slab.contacts.size(); ++k) {
@@ -127,16 +137,21 @@ void order_support(discrete_workspace& ws)
             bool const a_above = (grid.sphere(c.a).x - grid.sphere(c.b).x).dot(down) < 0.0;
             std::uint32_t const upper = a_above ? i : j;
             double const depth = grid.sphere(a_above ? c.a : c.b).x.dot(ws.moving_acceleration[upper]);
-            order.push_back({depth, upper, s, k, a_above});
+            listed.push_back({depth, upper, s, k, a_above});
+            if (count[upper]++ == 0)
+                uppers.push_back({depth, upper});
         }
     }
-    std::sort(order.begin(), order.end(), [](auto const& p, auto const& q) {
-        if (p.depth != q.depth)
-            return p.depth > q.depth;
-        if (p.upper != q.upper)
-            return p.upper < q.upper;
-        return p.slab != q.slab ? p.slab < q.slab : p.contact < q.contact;
+    std::sort(uppers.begin(), uppers.end(), [](auto const& p, auto const& q) {
+        return p.depth != q.depth ? p.depth > q.depth : p.upper < q.upper;
     });
+    std::uint32_t at = 0;
+    for (auto const& u : uppers)
+        at += std::exchange(count[u.upper], at);
+    auto& order = ws.support_order;
+    order.resize(listed.size());
+    for (auto const& e : listed)
+        order[count[e.upper]++] = e;
 }
 
 /// Support, passed up a pile in one pass: each sphere in order of depth along gravity (the

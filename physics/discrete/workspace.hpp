@@ -127,6 +127,16 @@ struct discrete_workspace
         bool a_above; ///< the upper sphere is the contact's a
     };
     std::vector<support_entry> support_order;
+    /// Scratch of order_support(): the spheres that are upper ones, at their depths, and
+    /// each one's count of contacts, then where its contacts go.
+    struct support_upper
+    {
+        double depth;
+        std::uint32_t upper;
+    };
+    std::vector<support_upper> support_uppers;
+    std::vector<std::uint32_t> support_count;
+    std::vector<support_entry> support_scratch;
     /// One sphere's stops against its supports while support is passed up (velocity_passes.cpp).
     struct support_stop
     {
