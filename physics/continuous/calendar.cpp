@@ -566,6 +566,15 @@ calendar::outcome calendar::step(collision_settings const& settings, std::span<w
         std::pop_heap(queue_.begin(), queue_.end(), std::greater<>{});
         event const e = queue_.back();
         queue_.pop_back();
+        if (!queue_.empty()) {
+            // The next event's spheres, on their way while this one is handled: in a large
+            // gas two events in a row lie far apart, and each waited for its spheres' reads.
+            event const& soon = queue_.front();
+            __builtin_prefetch(&spheres_[soon.body]);
+            __builtin_prefetch(&cell_[soon.body]);
+            if (soon.kind() == event_kind::pair)
+                __builtin_prefetch(&spheres_[soon.other()]);
+        }
         if (!current(e))
             continue;
         now_ = e.time;
