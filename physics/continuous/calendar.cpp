@@ -195,6 +195,7 @@ void calendar::build(collision_bodies const& b)
         std::clamp(std::isfinite(crossings) ? 2.0 * crossings * h_ / events_per_bucket : most_buckets_per_step,
                    fewest_buckets_per_step, most_buckets_per_step);
     queue_.clear();
+    opened_events_.clear();
     lists_.clear();
     later_.assign(static_cast<std::size_t>(std::ceil(per_step * steps_in_ring)), event_lists::empty);
     latest_ = event_lists::empty;
@@ -323,9 +324,9 @@ void calendar::open_bucket()
     ++opened_;
     lists_.take(later_[static_cast<std::size_t>(opened_) % later_.size()], [&](event const& e) {
         if (current(e))
-            queue_.push_back(e);
+            opened_events_.push_back(e);
     });
-    std::make_heap(queue_.begin(), queue_.end(), std::greater<>{});
+    std::sort(opened_events_.begin(), opened_events_.end(), std::greater<>{});
     if (opened_ % static_cast<std::int64_t>(later_.size()) == 0) {
         // the ring's turn: the current events beyond it filed again, into the ring or
         // back among the latest (their blocks given back as they are read)
@@ -553,23 +554,31 @@ calendar::outcome calendar::step(collision_settings const& settings, std::span<w
     std::fill(events_of_.begin(), events_of_.end(), 0U);
     std::uint64_t contacts = 0;
     for (;;) {
-        // The queue holds the events of the buckets opened so far, every other event is
-        // later: its earliest is the next, and an empty queue opens the next bucket.
-        if (queue_.empty()) {
+        // The opened bucket's events and the queue hold the events of the buckets opened so
+        // far, every other event is later: the earlier of their earliest is the next, and
+        // when both are empty the next bucket is opened.
+        if (opened_events_.empty() && queue_.empty()) {
             if (opened_ >= last)
                 break;
             open_bucket();
             continue;
         }
-        if (queue_.front().time > end)
+        bool const queued = opened_events_.empty() || (!queue_.empty() && opened_events_.back() > queue_.front());
+        if ((queued ? queue_.front() : opened_events_.back()).time > end)
             break;
-        std::pop_heap(queue_.begin(), queue_.end(), std::greater<>{});
-        event const e = queue_.back();
-        queue_.pop_back();
-        if (!queue_.empty()) {
+        event e{};
+        if (queued) {
+            std::pop_heap(queue_.begin(), queue_.end(), std::greater<>{});
+            e = queue_.back();
+            queue_.pop_back();
+        } else {
+            e = opened_events_.back();
+            opened_events_.pop_back();
+        }
+        if (!opened_events_.empty()) {
             // The next event's spheres, on their way while this one is handled: in a large
             // gas two events in a row lie far apart, and each waited for its spheres' reads.
-            event const& soon = queue_.front();
+            event const& soon = opened_events_.back();
             __builtin_prefetch(&spheres_[soon.body]);
             __builtin_prefetch(&cell_[soon.body]);
             if (soon.kind() == event_kind::pair)
