@@ -124,10 +124,14 @@ TEST(ContinuousEvents, CoulombForcesArePinned)
 // The work at a step's and a slice's start (paths, walls, the grid's pairs and their
 // predictions) is spread over lent threads, each part into a list of its own; the queue
 // orders events by time and indices alone, so the result is the same bits for any count.
+// The calendar (below) takes its events on one thread, the rest of the step on those lent:
+// the same bits too.
 TEST(ContinuousThreads, AnyNumberOfThreadsGivesTheSameBits)
 {
     gas_options const dilute{.n = 3000};
-    for (auto const& [o, steps] : {std::pair{dilute, 40}, std::pair{fast_gas, 30}, std::pair{mixed_sizes, 40}}) {
+    gas_options const kept{.n = 3000, .max_speed = 5.0, .calendar = true};
+    for (auto const& [o, steps] :
+         {std::pair{dilute, 40}, std::pair{fast_gas, 30}, std::pair{mixed_sizes, 40}, std::pair{kept, 40}}) {
         std::uint64_t const alone = pinned(o, steps);
         for (std::size_t const threads : {1U, 2U, 3U}) {
             thread_pool pool(threads);
