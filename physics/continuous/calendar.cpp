@@ -3,6 +3,7 @@
 #include "physics/collision_rules.hpp"
 #include "physics/collisions.hpp"
 #include "physics/continuous/touching.hpp"
+#include "physics/parallel_for.hpp"
 #include "physics/time_of_impact.hpp"
 #include "physics/wall_set.hpp"
 
@@ -10,6 +11,7 @@
 #include <cmath>
 #include <functional>
 #include <limits>
+#include <thread>
 
 namespace kugel::physics::continuous {
 
@@ -37,6 +39,31 @@ constexpr double cell_margin = 1e-6;
 
 /// Paths changed by commands in one step beyond which the calendar starts afresh instead.
 constexpr std::size_t changes_worth_following(std::size_t members) { return members / 8 + 16; }
+
+/// Spheres below which the box is not cut into halves (a step of a few thousand takes some
+/// hundred microseconds, and each round's hand-over between threads a microsecond), and the
+/// cells along x below which it is not (each half needs cells of its own beside the seam).
+constexpr std::size_t fewest_for_halves = 2000;
+constexpr std::uint32_t fewest_cells_for_halves = 8;
+
+/// The helper's mail in a round.
+enum mail : int { idle, posted, done, stop };
+
+/// A pause in a thread's spin, while it waits for the other.
+void pause()
+{
+#if defined(__x86_64__) || defined(__i386__)
+    __builtin_ia32_pause();
+#else
+    std::this_thread::yield();
+#endif
+}
+
+/// After every event of a step that ends at `end`, before any later one.
+event step_end(double end)
+{
+    return {end, event_kind::crossing, 0xffffffffU, event::most_indexed - 1U, 0, 0};
+}
 
 bool same(vec3 const& a, vec3 const& b) { return (a.array() == b.array()).all(); }
 
@@ -130,6 +157,36 @@ calendar::cell_coordinates calendar::cell_of(vec3 const& x) const
     return c;
 }
 
+std::uint32_t calendar::cell_x_of(double x) const
+{
+    double const u = std::floor((x - lo_[0]) * inverse_width_[0]);
+    return u <= 0.0 ? 0U : u >= static_cast<double>(dims_[0] - 1U) ? dims_[0] - 1U : static_cast<std::uint32_t>(u);
+}
+
+int calendar::part_of_event(event const& e) const
+{
+    std::uint32_t const i = e.body;
+    auto const at = [&](std::uint32_t k) {
+        sphere const& s = spheres_[k];
+        return part_of(cell_x_of(s.x[0] + (e.time - s.since) * s.v[0]));
+    };
+    switch (e.kind()) {
+    case event_kind::crossing: {
+        std::uint32_t const x = cell_[i][0];
+        int const from = part_of(x);
+        if (e.other() / 2U != 0U)
+            return from;
+        return part_of((e.other() & 1U) != 0U ? x + 1U : x - 1U) == from ? from : seam;
+    }
+    case event_kind::pair: {
+        int const p = at(i);
+        return at(e.other()) == p ? p : seam;
+    }
+    default:
+        return at(i);
+    }
+}
+
 void calendar::link(std::uint32_t i)
 {
     std::uint32_t& head = head_[cell_index(cell_[i])];
@@ -152,13 +209,15 @@ void calendar::unlink(std::uint32_t i)
 }
 
 template <class F>
-void calendar::for_each_in_cells(std::array<std::uint32_t, 3> const& lo, std::array<std::uint32_t, 3> const& hi, F f)
+void calendar::for_each_in_cells(lane& w, std::array<std::uint32_t, 3> const& lo,
+                                 std::array<std::uint32_t, 3> const& hi, F f)
 {
     // The spheres listed first, then offered: the walk along the lists reads each sphere
     // while the next cells' reads are still on their way, where a prediction between two
     // reads made each wait for its own (10⁵ spheres: the neighbours' reads missed the cache).
     // Each row of cells along x is contiguous in head_: its index is found once.
-    near_.clear();
+    std::vector<std::uint32_t>& near = w.near;
+    near.clear();
     std::uint32_t const row_length = hi[0] - lo[0] + 1U;
     for (std::uint32_t z = lo[2]; z <= hi[2]; ++z)
         for (std::uint32_t y = lo[1]; y <= hi[1]; ++y) {
@@ -167,16 +226,15 @@ void calendar::for_each_in_cells(std::array<std::uint32_t, 3> const& lo, std::ar
                 continue; // most rows of three are empty: one test (`none` is all ones)
             for (std::uint32_t x = 0; x < row_length; ++x)
                 for (std::uint32_t j = row[x]; j != none; j = spheres_[j].next)
-                    near_.push_back(j);
+                    near.push_back(j);
         }
-    for (std::uint32_t j : near_)
+    for (std::uint32_t j : near)
         f(j);
 }
 
 void calendar::build(collision_bodies const& b)
 {
     clock_ = 0.0;
-    now_ = 0.0;
     layout_ = b.layout;
     planes_.clear();
     for (wall const& w : walls_)
@@ -194,13 +252,24 @@ void calendar::build(collision_bodies const& b)
     double const per_step =
         std::clamp(std::isfinite(crossings) ? 2.0 * crossings * h_ / events_per_bucket : most_buckets_per_step,
                    fewest_buckets_per_step, most_buckets_per_step);
-    queue_.clear();
-    opened_events_.clear();
-    lists_.clear();
-    later_.assign(static_cast<std::size_t>(std::ceil(per_step * steps_in_ring)), event_lists::empty);
-    latest_ = event_lists::empty;
     bucket_ = h_ > 0.0 ? h_ / per_step : 1.0;
-    opened_ = 0;
+    auto const ring = static_cast<std::size_t>(std::ceil(per_step * steps_in_ring));
+    for (lane& w : lanes_) {
+        queue& q = w.q;
+        q.heap.clear();
+        q.opened_events.clear();
+        q.lists.clear();
+        q.later.assign(ring, event_lists::empty);
+        q.latest = event_lists::empty;
+        q.opened = 0;
+        w.now = 0.0;
+    }
+    seam_.clear();
+    seam_hand_.now = 0.0;
+    cut_ = dims_[0] / 2U;
+    lanes_[0].part = halves_ ? 0 : whole;
+    lanes_[1].part = 1;
+    seam_hand_.part = seam;
     // Numbered in cell order (a counting sort by cell), each cell's list in that order.
     std::size_t const cells = std::size_t{dims_[0]} * dims_[1] * dims_[2];
     std::size_t const m = members_;
@@ -235,11 +304,12 @@ void calendar::build(collision_bodies const& b)
     }
     // Every pair of neighbours once: each sphere against the rest of its cell's list and the
     // lists of the 13 neighbouring cells that come after its own.
+    lane& w = halves_ ? seam_hand_ : lanes_[0];
     for (std::uint32_t i = 0; i < m; ++i) {
-        predict_walls(i);
-        predict_crossing(i);
+        predict_walls(w, i);
+        predict_crossing(w, i);
         for (std::uint32_t j = spheres_[i].next; j != none; j = spheres_[j].next)
-            predict_pair(i, j);
+            predict_pair(w, i, j);
         auto const& c = cell_[i];
         for (int dz = 0; dz <= 1; ++dz)
             for (int dy = dz == 0 ? 0 : -1; dy <= 1; ++dy)
@@ -251,24 +321,35 @@ void calendar::build(collision_bodies const& b)
                     std::array<std::uint32_t, 3> const at{static_cast<std::uint32_t>(x), static_cast<std::uint32_t>(y),
                                                           static_cast<std::uint32_t>(z)};
                     for (std::uint32_t j = head_[cell_index(at)]; j != none; j = spheres_[j].next)
-                        predict_pair(i, j);
+                        predict_pair(w, i, j);
                 }
     }
-    std::make_heap(queue_.begin(), queue_.end(), std::greater<>{});
+    for (lane& l : lanes_)
+        std::make_heap(l.q.heap.begin(), l.q.heap.end(), std::greater<>{});
+    std::make_heap(seam_.begin(), seam_.end(), std::greater<>{});
     built_ = true;
 }
 
-bool calendar::notice_changes(collision_bodies const& b)
+bool calendar::notice_changes(collision_bodies const& b, parallel_for* loops)
 {
-    // A command (an impulse, a teleport) changed these paths since the last step's end.
-    changed_.clear();
-    for (std::uint32_t i = 0; i < spheres_.size(); ++i) {
-        std::uint32_t const s = slot_[i];
-        if (!same(b.x0[s], position(i, clock_)) || !same(b.v0[s], spheres_[i].v)) {
-            if (changed_.size() == changes_worth_following(spheres_.size()))
-                return false;
-            changed_.push_back(i);
+    // A command (an impulse, a teleport) changed these paths since the last step's end:
+    // found by chunks of spheres (on the lent threads), each into a list of its own.
+    std::size_t const most = changes_worth_following(spheres_.size());
+    changed_in_.resize(chunk_count(spheres_.size()));
+    run_chunks(loops, spheres_.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
+        std::vector<std::uint32_t>& found = changed_in_[chunk];
+        found.clear();
+        for (auto i = static_cast<std::uint32_t>(begin); i < end && found.size() <= most; ++i) {
+            std::uint32_t const s = slot_[i];
+            if (!same(b.x0[s], position(i, clock_)) || !same(b.v0[s], spheres_[i].v))
+                found.push_back(i);
         }
+    });
+    changed_.clear();
+    for (std::vector<std::uint32_t> const& found : changed_in_) {
+        changed_.insert(changed_.end(), found.begin(), found.end());
+        if (changed_.size() > most)
+            return false;
     }
     vec3 const hi = lo_ + width_.cwiseProduct(vec3(dims_[0], dims_[1], dims_[2]));
     for (std::uint32_t i : changed_) {
@@ -281,8 +362,10 @@ bool calendar::notice_changes(collision_bodies const& b)
         link(i);
         repath(i, x, v, clock_);
     }
+    lane& w = halves_ ? seam_hand_ : lanes_[0];
+    w.now = clock_;
     for (std::uint32_t i : changed_)
-        predict_body(i, none);
+        predict_body(w, i, none);
     return true;
 }
 
@@ -292,57 +375,125 @@ void calendar::repath(std::uint32_t i, vec3 const& x, vec3 const& v, double t)
     s.x = x;
     s.v = v;
     s.since = t;
-    ++s.version;
+    std::atomic_ref<std::uint32_t>(s.version).store(s.version + 1U, std::memory_order_relaxed);
 }
 
-void calendar::push(double time, event_kind kind, std::uint32_t body, std::uint32_t other)
+[[gnu::always_inline]] inline void calendar::push(lane& w, double time, event_kind kind, std::uint32_t body, std::uint32_t other)
 {
     // A time of impact from an older path can round to just before the event that found it;
     // events after the calendar's span are never taken (no step it takes ends later).
     if (!(time <= clock_span))
         return;
+    // (Both are the lane's own or the seam's: no other lane writes them in a round.)
     std::uint32_t const other_version = kind == event_kind::pair ? spheres_[other].version : 0;
-    file({std::max(time, now_), kind, body, other, spheres_[body].version, other_version});
-}
-
-void calendar::file(event const& e)
-{
-    std::int64_t const bucket = bucket_of(e.time);
-    if (bucket <= opened_) {
-        queue_.push_back(e);
-        if (built_)
-            std::push_heap(queue_.begin(), queue_.end(), std::greater<>{});
-    } else if (bucket - opened_ <= static_cast<std::int64_t>(later_.size())) {
-        lists_.push(later_[static_cast<std::size_t>(bucket) % later_.size()], e);
-    } else {
-        lists_.push(latest_, e);
+    event const e{std::max(time, w.now), kind, body, other, spheres_[body].version, other_version};
+    if (w.part == whole) {
+        file(w.q, e);
+        return;
+    }
+    int const part = part_of_event(e);
+    if (w.part == seam) { // between rounds: straight where it goes
+        if (part == seam)
+            file_seam(e);
+        else
+            file(lanes_[static_cast<std::size_t>(part)].q, e);
+    } else if (part == w.part) {
+        file(w.q, e);
+    } else if (part == seam) {
+        hand_over(w, e);
+    } else { // the other half's: not before the seam event its spheres cross first
+        w.for_other.push_back(e);
     }
 }
 
-void calendar::open_bucket()
+void calendar::file(queue& q, event const& e)
 {
-    ++opened_;
-    lists_.take(later_[static_cast<std::size_t>(opened_) % later_.size()], [&](event const& e) {
+    std::int64_t const bucket = bucket_of(e.time);
+    if (bucket <= q.opened) {
+        q.heap.push_back(e);
+        if (built_)
+            std::push_heap(q.heap.begin(), q.heap.end(), std::greater<>{});
+    } else if (bucket - q.opened <= static_cast<std::int64_t>(q.later.size())) {
+        q.lists.push(q.later[static_cast<std::size_t>(bucket) % q.later.size()], e);
+    } else {
+        q.lists.push(q.latest, e);
+    }
+}
+
+void calendar::file_seam(event const& e)
+{
+    seam_.push_back(e);
+    if (built_)
+        std::push_heap(seam_.begin(), seam_.end(), std::greater<>{});
+}
+
+void calendar::open_slice(queue& q)
+{
+    ++q.opened;
+    q.lists.take(q.later[static_cast<std::size_t>(q.opened) % q.later.size()], [&](event const& e) {
         if (current(e))
-            opened_events_.push_back(e);
+            q.opened_events.push_back(e);
     });
-    std::sort(opened_events_.begin(), opened_events_.end(), std::greater<>{});
-    if (opened_ % static_cast<std::int64_t>(later_.size()) == 0) {
+    std::sort(q.opened_events.begin(), q.opened_events.end(), std::greater<>{});
+    if (q.opened % static_cast<std::int64_t>(q.later.size()) == 0) {
         // the ring's turn: the current events beyond it filed again, into the ring or
         // back among the latest (their blocks given back as they are read)
-        lists_.take(latest_, [&](event const& e) {
+        q.lists.take(q.latest, [&](event const& e) {
             if (current(e))
-                file(e);
+                file(q, e);
         });
     }
 }
 
-bool calendar::current(event const& e) const
+[[gnu::always_inline]] inline event const* calendar::peek(queue& q, std::int64_t last)
 {
-    return spheres_[e.body].version + (e.kind() == event_kind::pair ? spheres_[e.other()].version : 0U) == e.versions;
+    // The opened slice's events and the heap hold the events of the slices opened so far,
+    // every other event is later: the earlier of their earliest is the next, and when both
+    // are empty the next slice is opened.
+    while (q.opened_events.empty() && q.heap.empty()) {
+        if (q.opened >= last)
+            return nullptr;
+        open_slice(q);
+    }
+    if (q.opened_events.empty() || (!q.heap.empty() && q.opened_events.back() > q.heap.front()))
+        return &q.heap.front();
+    return &q.opened_events.back();
 }
 
-void calendar::predict_pair(std::uint32_t i, std::uint32_t j)
+[[gnu::always_inline]] inline event calendar::pop(queue& q)
+{
+    event e{};
+    if (q.opened_events.empty() || (!q.heap.empty() && q.opened_events.back() > q.heap.front())) {
+        std::pop_heap(q.heap.begin(), q.heap.end(), std::greater<>{});
+        e = q.heap.back();
+        q.heap.pop_back();
+    } else {
+        e = q.opened_events.back();
+        q.opened_events.pop_back();
+    }
+    if (!q.opened_events.empty()) {
+        // The next event's spheres, on their way while this one is handled: in a large
+        // gas two events in a row lie far apart, and each waited for its spheres' reads.
+        event const& soon = q.opened_events.back();
+        __builtin_prefetch(&spheres_[soon.body]);
+        __builtin_prefetch(&cell_[soon.body]);
+        if (soon.kind() == event_kind::pair)
+            __builtin_prefetch(&spheres_[soon.other()]);
+    }
+    return e;
+}
+
+[[gnu::always_inline]] inline bool calendar::current(event const& e) const
+{
+    // By halves, a stale event may name a sphere another lane is moving: its version is
+    // read atomically (it only rises, so a sum that differs once always will).
+    std::uint32_t const other = e.kind() == event_kind::pair ? e.other() : none;
+    if (halves_)
+        return version_of(e.body) + (other != none ? version_of(other) : 0U) == e.versions;
+    return spheres_[e.body].version + (other != none ? spheres_[other].version : 0U) == e.versions;
+}
+
+void calendar::predict_pair(lane& w, std::uint32_t i, std::uint32_t j)
 {
     if (shape_of(i).inverse_mass == 0.0 && shape_of(j).inverse_mass == 0.0)
         return;
@@ -358,10 +509,10 @@ void calendar::predict_pair(std::uint32_t i, std::uint32_t j)
     if (surely_misses(p->x - xq, p->v - q->v, shape_of(i).radius + shape_of(j).radius))
         return; // most neighbours: no call
     if (auto t = sphere_time_of_impact(p->x, p->v, shape_of(i).radius, xq, q->v, shape_of(j).radius, forever))
-        push(p->since + *t, event_kind::pair, i, j);
+        push(w, p->since + *t, event_kind::pair, i, j);
 }
 
-void calendar::predict_walls(std::uint32_t i, int only_axis)
+void calendar::predict_walls(lane& w, std::uint32_t i, int only_axis)
 {
     if (shape_of(i).inverse_mass == 0.0)
         return;
@@ -390,17 +541,17 @@ void calendar::predict_walls(std::uint32_t i, int only_axis)
         if (!(towards < 0.0))
             continue;
         double const gap = ((s.positive ? p.x[s.axis] : -p.x[s.axis]) - walls_[k].surface.offset) - shape_of(i).radius;
-        double const t = std::max(p.since + (gap > 0.0 ? gap / -towards : 0.0), now_); // as push() files it
+        double const t = std::max(p.since + (gap > 0.0 ? gap / -towards : 0.0), w.now); // as push() files it
         if (t < soonest) {
             soonest = t;
             first = k;
         }
     }
     if (soonest < forever)
-        push(soonest, event_kind::wall, i, first);
+        push(w, soonest, event_kind::wall, i, first);
 }
 
-void calendar::predict_crossing(std::uint32_t i)
+void calendar::predict_crossing(lane& w, std::uint32_t i)
 {
     sphere const& p = spheres_[i];
     auto const& c = cell_[i];
@@ -427,27 +578,27 @@ void calendar::predict_crossing(std::uint32_t i)
         axis = 2;
     }
     if (soonest < forever)
-        push(p.since + std::max(soonest, 0.0), event_kind::crossing, i,
+        push(w, p.since + std::max(soonest, 0.0), event_kind::crossing, i,
              2U * axis + (p.v[static_cast<int>(axis)] > 0.0 ? 1U : 0U));
 }
 
-void calendar::predict_body(std::uint32_t i, std::uint32_t except)
+void calendar::predict_body(lane& w, std::uint32_t i, std::uint32_t except)
 {
-    predict_walls(i);
-    predict_crossing(i);
+    predict_walls(w, i);
+    predict_crossing(w, i);
     auto const& c = cell_[i];
     std::array<std::uint32_t, 3> lo{}, hi{};
     for (std::size_t a = 0; a < 3; ++a) {
         lo[a] = c[a] > 0U ? c[a] - 1U : 0U;
         hi[a] = std::min(c[a] + 1U, dims_[a] - 1U);
     }
-    for_each_in_cells(lo, hi, [&](std::uint32_t j) {
+    for_each_in_cells(w, lo, hi, [&](std::uint32_t j) {
         if (j != i && j != except)
-            predict_pair(i, j);
+            predict_pair(w, i, j);
     });
 }
 
-void calendar::handle_pair(event const& e)
+void calendar::handle_pair(lane& w, event const& e)
 {
     std::uint32_t const i = e.body, j = e.other();
     vec3 const xi = position(i, e.time), xj = position(j, e.time);
@@ -459,38 +610,40 @@ void calendar::handle_pair(event const& e)
         vec3 const n = detail::contact_normal(d, distance);
         if (detail::respond_to_sphere_contact(vi, shape_of(i).inverse_mass, vec3::Zero(), vj, shape_of(j).inverse_mass,
                                               vec3::Zero(), n, *settings_, h_))
-            ++stats_->sphere_contacts;
+            ++w.sphere_contacts;
     }
     repath(i, xi, vi, e.time);
     repath(j, xj, vj, e.time);
-    predict_body(i, j);
-    predict_body(j, none);
+    predict_body(w, i, j);
+    predict_body(w, j, none);
 }
 
-void calendar::handle_wall(event const& e)
+void calendar::handle_wall(lane& w, event const& e)
 {
     std::uint32_t const i = e.body;
-    wall const& w = walls_[e.other()];
+    wall const& wa = walls_[e.other()];
     double const r = shape_of(i).radius;
     body_path p{position(i, e.time), spheres_[i].v, vec3::Zero(), e.time};
-    double const height = w.surface.normal.dot(p.x);
-    if (height <= w.surface.offset + r + touching_tolerance * r ||
-        height <= w.surface.offset + r + position_slack(p.x, vec3::Zero())) {
-        if (detail::respond_to_surface(p, w.surface.normal, w.surface.offset + r, w.damping, w.friction, *settings_,
-                                       h_))
-            ++stats_->wall_contacts;
+    double const height = wa.surface.normal.dot(p.x);
+    if (height <= wa.surface.offset + r + touching_tolerance * r ||
+        height <= wa.surface.offset + r + position_slack(p.x, vec3::Zero())) {
+        if (detail::respond_to_surface(p, wa.surface.normal, wa.surface.offset + r, wa.damping, wa.friction,
+                                       *settings_, h_))
+            ++w.wall_contacts;
     }
     repath(i, p.x, p.v, e.time);
-    predict_body(i, none);
+    predict_body(w, i, none);
 }
 
-void calendar::handle_crossing(event const& e)
+void calendar::handle_crossing(lane& w, event const& e)
 {
     std::uint32_t const i = e.body;
     auto const axis = static_cast<std::size_t>(e.other() / 2U);
     bool const up = (e.other() & 1U) != 0U;
     unlink(i);
-    cell_[i][axis] = static_cast<std::uint16_t>(up ? cell_[i][axis] + 1U : cell_[i][axis] - 1U);
+    std::uint16_t& moved = cell_[i][axis];
+    std::atomic_ref<std::uint16_t>(moved).store(static_cast<std::uint16_t>(up ? moved + 1U : moved - 1U),
+                                                std::memory_order_relaxed);
     link(i);
     // The layer of cells that came into reach, one beyond the new cell along the axis.
     auto const& c = cell_[i];
@@ -502,111 +655,404 @@ void calendar::handle_crossing(event const& e)
             hi[a] = std::min(c[a] + 1U, dims_[a] - 1U);
         }
         lo[axis] = hi[axis] = up ? c[axis] + 1U : c[axis] - 1U;
-        for_each_in_cells(lo, hi, [&](std::uint32_t j) { predict_pair(i, j); });
+        for_each_in_cells(w, lo, hi, [&](std::uint32_t j) { predict_pair(w, i, j); });
     } else {
-        predict_walls(i, static_cast<int>(axis)); // into the cells beside a wall on this axis
+        predict_walls(w, i, static_cast<int>(axis)); // into the cells beside a wall on this axis
     }
-    predict_crossing(i);
+    predict_crossing(w, i);
 }
 
-void calendar::write_positions(collision_bodies const& b, double at, bool clamp) const
+void calendar::write_positions(collision_bodies const& b, double at, bool clamp, parallel_for* loops) const
 {
     detail::wall_set const walls(walls_);
-    for (std::uint32_t i = 0; i < spheres_.size(); ++i) {
-        std::uint32_t const s = slot_[i];
-        b.x[s] = position(i, at);
-        b.v[s] = spheres_[i].v;
-        // Rounding may leave a sphere inside a wall by an ulp, and only one in the cells
-        // beside a wall can be (a cell is wider than a diameter): the clamp every continuous
-        // step ends with (clamp_to_walls), without a pass over the rest.
-        if (clamp && at_a_side(cell_[i]))
-            detail::clamp_to_walls(walls, b.x[s], b.v[s], shape_of(i).radius, shape_of(i).inverse_mass);
+    run_chunks(loops, spheres_.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+        for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i) {
+            std::uint32_t const s = slot_[i];
+            b.x[s] = position(i, at);
+            b.v[s] = spheres_[i].v;
+            // Rounding may leave a sphere inside a wall by an ulp, and only one in the cells
+            // beside a wall can be (a cell is wider than a diameter): the clamp every
+            // continuous step ends with (clamp_to_walls), without a pass over the rest.
+            if (clamp && at_a_side(cell_[i]))
+                detail::clamp_to_walls(walls, b.x[s], b.v[s], shape_of(i).radius, shape_of(i).inverse_mass);
+        }
+    });
+}
+
+bool calendar::take_whole(double end)
+{
+    lane& w = lanes_[0];
+    for (;;) {
+        event const* next = peek(w.q, last_);
+        if (next == nullptr || next->time > end)
+            return false;
+        event const e = pop(w.q);
+        if (!current(e))
+            continue;
+        w.now = e.time;
+        ++w.events;
+        if (e.kind() == event_kind::crossing) {
+            handle_crossing(w, e);
+            continue;
+        }
+        bool const pair = e.kind() == event_kind::pair;
+        if (contacts_ == settings_->max_events_per_step ||
+            events_of_[e.body]++ >= settings_->max_events_per_body ||
+            (pair && events_of_[e.other()]++ >= settings_->max_events_per_body))
+            return true;
+        ++contacts_;
+        if (pair)
+            handle_pair(w, e);
+        else
+            handle_wall(w, e);
+    }
+}
+
+void calendar::hand_over(lane& w, event const& e)
+{
+    w.for_seam.push_back(e);
+    // An event filed at the time of the one being handled may sort before it (its time
+    // rounded up to now, a tie broken by kind and indices), as may the events after that:
+    // one queue would take it next, after every event the lane has taken. So the round ends
+    // after the furthest of those.
+    event const after = !w.log.empty() && w.furthest > e ? w.furthest : e;
+    if (after.time > signals_.bound_time.load(std::memory_order_relaxed))
+        return;
+    std::lock_guard const held(signals_.lock);
+    if (signals_.bound > after) {
+        signals_.bound = after;
+        signals_.bound_time.store(after.time, std::memory_order_relaxed);
+    }
+}
+
+void calendar::take_lane(lane& w, std::uint64_t budget)
+{
+    std::uint64_t const most = settings_->max_events_per_body;
+    for (;;) {
+        event const* next = peek(w.q, last_);
+        if (next == nullptr)
+            return;
+        // Up to the round's bound, which the other lane may lower at any time: a tie in time
+        // is settled by the whole order, under the lock.
+        double const bound = signals_.bound_time.load(std::memory_order_relaxed);
+        if (next->time > bound)
+            return;
+        if (next->time == bound) {
+            std::lock_guard const held(signals_.lock);
+            if (!(signals_.bound > *next))
+                return;
+        }
+        event const e = pop(w.q);
+        if (!current(e))
+            continue; // (versions only rise: an event stale once stays so)
+        std::uint32_t const i = e.body;
+        bool const pair = e.kind() == event_kind::pair;
+        bool const crossing = e.kind() == event_kind::crossing;
+        bool own = part_of_sphere(i) == w.part;
+        if (crossing && e.other() / 2U == 0U)
+            own = own && part_of((e.other() & 1U) != 0U ? cell_[i][0] + 1U : cell_[i][0] - 1U) == w.part;
+        if (pair)
+            own = own && part_of_sphere(e.other()) == w.part;
+        if (!own || (!crossing && (w.contacts >= budget || events_of_[i] >= most ||
+                                   (pair && events_of_[e.other()] >= most)))) {
+            hand_over(w, e); // the seam's, or at a cap: taken between rounds
+            return;
+        }
+        w.now = e.time;
+        if (w.log.empty() || e > w.furthest)
+            w.furthest = e;
+        taken& t = w.log.emplace_back();
+        t.e = e;
+        t.contact = 0;
+        ++w.events;
+        if (crossing) {
+            t.cell = cell_[i];
+            handle_crossing(w, e);
+            continue;
+        }
+        sphere const& s = spheres_[i];
+        t.x[0] = s.x;
+        t.v[0] = s.v;
+        t.since[0] = s.since;
+        ++events_of_[i];
+        ++w.contacts;
+        std::uint64_t const before = w.sphere_contacts + w.wall_contacts;
+        if (pair) {
+            sphere const& o = spheres_[e.other()];
+            t.x[1] = o.x;
+            t.v[1] = o.v;
+            t.since[1] = o.since;
+            ++events_of_[e.other()];
+            handle_pair(w, e);
+        } else {
+            handle_wall(w, e);
+        }
+        t.contact = static_cast<std::uint8_t>(w.sphere_contacts + w.wall_contacts - before);
+    }
+}
+
+void calendar::undo_after(event const& bound)
+{
+    undone_spheres_.clear();
+    for (lane& w : lanes_) {
+        // Every event a lane took after the first one past the bound (those after it in the
+        // lane may sort before it, when filed at its time, but one queue takes them after it).
+        auto const first = std::find_if(w.log.begin(), w.log.end(), [&](taken const& t) { return t.e > bound; });
+        while (w.log.end() != first) {
+            taken const& t = w.log.back();
+            std::uint32_t const i = t.e.body;
+            undone_spheres_.push_back(i);
+            if (t.e.kind() == event_kind::crossing) {
+                unlink(i);
+                cell_[i] = t.cell;
+                link(i);
+            } else {
+                bool const pair = t.e.kind() == event_kind::pair;
+                std::size_t const n = pair ? 2 : 1;
+                for (std::size_t k = 0; k < n; ++k) {
+                    sphere& s = spheres_[k == 0 ? i : t.e.other()];
+                    s.x = t.x[k];
+                    s.v = t.v[k];
+                    s.since = t.since[k];
+                }
+                --events_of_[i];
+                if (pair) {
+                    --events_of_[t.e.other()];
+                    undone_spheres_.push_back(t.e.other());
+                    w.sphere_contacts -= t.contact;
+                } else {
+                    w.wall_contacts -= t.contact;
+                }
+                --w.contacts;
+            }
+            --w.events;
+            ++undone_;
+            w.log.pop_back();
+        }
+    }
+    // Each sphere put back starts a path of its own (its events, filed before and in the
+    // round, stale), and is predicted as when its path began: the same events at the same
+    // times, since no event before the bound is left untaken.
+    std::sort(undone_spheres_.begin(), undone_spheres_.end());
+    undone_spheres_.erase(std::unique(undone_spheres_.begin(), undone_spheres_.end()), undone_spheres_.end());
+    for (std::uint32_t i : undone_spheres_)
+        ++spheres_[i].version;
+    seam_hand_.now = bound.time;
+    for (std::uint32_t i : undone_spheres_)
+        predict_body(seam_hand_, i, none);
+}
+
+void calendar::file_handed()
+{
+    for (std::size_t k = 0; k < 2; ++k) {
+        lane& w = lanes_[k];
+        for (event const& e : w.for_other)
+            if (current(e))
+                file(lanes_[1 - k].q, e);
+        for (event const& e : w.for_seam)
+            if (current(e))
+                file_seam(e);
+        w.for_other.clear();
+        w.for_seam.clear();
+    }
+}
+
+void calendar::round(event const& bound, std::uint64_t budget, bool two_threads)
+{
+    signals_.bound = bound;
+    signals_.bound_time.store(bound.time, std::memory_order_relaxed);
+    for (lane& w : lanes_) {
+        w.log.clear();
+        w.contacts = 0;
+    }
+    if (two_threads) {
+        signals_.budget = budget;
+        signals_.mail.store(posted, std::memory_order_release);
+        take_lane(lanes_[0], budget);
+        while (signals_.mail.load(std::memory_order_acquire) != done)
+            pause();
+        signals_.mail.store(idle, std::memory_order_relaxed);
+    } else {
+        take_lane(lanes_[0], budget);
+        take_lane(lanes_[1], budget);
+    }
+    ++rounds_;
+    if (bound > signals_.bound)
+        undo_after(signals_.bound);
+    contacts_ += lanes_[0].contacts + lanes_[1].contacts;
+    file_handed();
+}
+
+bool calendar::take_by_halves(double end, parallel_for* loops)
+{
+    auto const take = [&](bool two_threads) {
+        event const last = step_end(end);
+        for (;;) {
+            // The next seam event (stale ones dropped): the bound of the lanes' round, if
+            // either has an event before it.
+            while (!seam_.empty() && !current(seam_.front())) {
+                std::pop_heap(seam_.begin(), seam_.end(), std::greater<>{});
+                seam_.pop_back();
+            }
+            bool const seam_next = !seam_.empty() && last > seam_.front();
+            event const bound = seam_next ? seam_.front() : last;
+            bool lanes_first = false;
+            for (lane& w : lanes_) {
+                event const* n = peek(w.q, last_);
+                lanes_first = lanes_first || (n != nullptr && bound > *n);
+            }
+            if (lanes_first) {
+                std::uint64_t const left = settings_->max_events_per_step - contacts_;
+                round(bound, left / 2U, two_threads && signals_.helping.load(std::memory_order_acquire));
+                continue;
+            }
+            if (!seam_next)
+                return false;
+            std::pop_heap(seam_.begin(), seam_.end(), std::greater<>{});
+            event const e = seam_.back();
+            seam_.pop_back();
+            lane& w = seam_hand_;
+            w.now = e.time;
+            ++w.events;
+            if (e.kind() == event_kind::crossing) {
+                handle_crossing(w, e);
+                continue;
+            }
+            bool const pair = e.kind() == event_kind::pair;
+            if (contacts_ == settings_->max_events_per_step ||
+                events_of_[e.body]++ >= settings_->max_events_per_body ||
+                (pair && events_of_[e.other()]++ >= settings_->max_events_per_body))
+                return true;
+            ++contacts_;
+            if (pair)
+                handle_pair(w, e);
+            else
+                handle_wall(w, e);
+        }
+    };
+    if (loops == nullptr)
+        return take(false);
+    // Two tasks: the first to start takes the events, the other takes the upper half's lane
+    // in each round posted to it until it is told to stop (if the two run one after the
+    // other, the first takes both lanes itself).
+    signals_.arrived.store(0, std::memory_order_relaxed);
+    signals_.mail.store(idle, std::memory_order_relaxed);
+    signals_.helping.store(false, std::memory_order_relaxed);
+    bool capped = false;
+    loops->run(2, [&](std::size_t) {
+        if (signals_.arrived.fetch_add(1, std::memory_order_acq_rel) == 0) {
+            struct stopper
+            {
+                std::atomic<int>& mail;
+                ~stopper() { mail.store(stop, std::memory_order_release); }
+            } const stops{signals_.mail};
+            capped = take(true);
+            return;
+        }
+        signals_.helping.store(true, std::memory_order_release);
+        for (;;) {
+            int const m = signals_.mail.load(std::memory_order_acquire);
+            if (m == posted) {
+                take_lane(lanes_[1], signals_.budget);
+                signals_.mail.store(done, std::memory_order_release);
+            } else if (m == stop) {
+                return;
+            } else {
+                pause();
+            }
+        }
+    });
+    return capped;
+}
+
+void calendar::refile(bool halves)
+{
+    // Every current event out of the queues, then filed again as the new cut says.
+    refiled_.clear();
+    auto const keep = [&](event const& e) {
+        if (current(e))
+            refiled_.push_back(e);
+    };
+    std::int64_t opened = 0;
+    for (lane& w : lanes_) {
+        queue& q = w.q;
+        opened = std::max(opened, q.opened);
+        std::for_each(q.opened_events.begin(), q.opened_events.end(), keep);
+        std::for_each(q.heap.begin(), q.heap.end(), keep);
+        q.opened_events.clear();
+        q.heap.clear();
+        for (event_lists::list& l : q.later)
+            q.lists.take(l, keep);
+        q.lists.take(q.latest, keep);
+    }
+    std::for_each(seam_.begin(), seam_.end(), keep);
+    seam_.clear();
+    halves_ = halves;
+    lanes_[0].part = halves ? 0 : whole;
+    for (lane& w : lanes_)
+        w.q.opened = opened;
+    for (event const& e : refiled_) {
+        int const part = halves ? part_of_event(e) : 0;
+        if (part == seam)
+            file_seam(e);
+        else
+            file(lanes_[static_cast<std::size_t>(part)].q, e);
     }
 }
 
 calendar::outcome calendar::step(collision_settings const& settings, std::span<wall const> walls,
-                                 collision_bodies const& b, double h, collision_stats& stats)
+                                 collision_bodies const& b, double h, collision_stats& stats, parallel_for* loops)
 {
     settings_ = &settings;
-    stats_ = &stats;
     h_ = h;
     bool const same_walls = built_ && std::equal(walls.begin(), walls.end(), planes_.begin(), planes_.end(),
                                                  [](wall const& w, auto const& p) { return plane_of(w) == p; });
     bool const same_bodies = built_ && b.layout == layout_;
-    now_ = clock_;
+    for (lane& w : lanes_)
+        w.now = clock_;
+    seam_hand_.now = clock_;
+    lanes_[0].part = halves_ ? 0 : whole;
+    lanes_[1].part = 1;
+    seam_hand_.part = seam;
     // The step's start: x itself while the drift is pending (the paths make it), else x0.
     collision_bodies start = b;
     if (b.drift_pending) {
         start.x0 = b.x;
         start.v0 = b.v;
     }
-    if (!(same_walls && same_bodies && clock_ + h <= clock_span && notice_changes(start))) {
+    if (!(same_walls && same_bodies && clock_ + h <= clock_span && notice_changes(start, loops))) {
         built_ = false;
         walls_ = walls;
         if (!fits(walls, start))
             return outcome::declined;
+        halves_ = loops != nullptr && members_ >= fewest_for_halves && dims_[0] >= fewest_cells_for_halves;
         build(start);
     }
     walls_ = walls;
+    // By halves where threads are lent (a step taken either way gives the same bits).
+    bool const halves = loops != nullptr && members_ >= fewest_for_halves && dims_[0] >= fewest_cells_for_halves;
+    if (halves != halves_)
+        refile(halves);
 
     double const end = clock_ + h;
-    std::int64_t const last = bucket_of(end);
+    last_ = bucket_of(end);
     std::fill(events_of_.begin(), events_of_.end(), 0U);
-    std::uint64_t contacts = 0;
-    for (;;) {
-        // The opened bucket's events and the queue hold the events of the buckets opened so
-        // far, every other event is later: the earlier of their earliest is the next, and
-        // when both are empty the next bucket is opened.
-        if (opened_events_.empty() && queue_.empty()) {
-            if (opened_ >= last)
-                break;
-            open_bucket();
-            continue;
-        }
-        bool const queued = opened_events_.empty() || (!queue_.empty() && opened_events_.back() > queue_.front());
-        if ((queued ? queue_.front() : opened_events_.back()).time > end)
-            break;
-        event e{};
-        if (queued) {
-            std::pop_heap(queue_.begin(), queue_.end(), std::greater<>{});
-            e = queue_.back();
-            queue_.pop_back();
-        } else {
-            e = opened_events_.back();
-            opened_events_.pop_back();
-        }
-        if (!opened_events_.empty()) {
-            // The next event's spheres, on their way while this one is handled: in a large
-            // gas two events in a row lie far apart, and each waited for its spheres' reads.
-            event const& soon = opened_events_.back();
-            __builtin_prefetch(&spheres_[soon.body]);
-            __builtin_prefetch(&cell_[soon.body]);
-            if (soon.kind() == event_kind::pair)
-                __builtin_prefetch(&spheres_[soon.other()]);
-        }
-        if (!current(e))
-            continue;
-        now_ = e.time;
-        ++stats.events;
-        if (e.kind() == event_kind::crossing) {
-            handle_crossing(e);
-            continue;
-        }
-        bool const pair = e.kind() == event_kind::pair;
-        if (contacts == settings.max_events_per_step || events_of_[e.body]++ >= settings.max_events_per_body ||
-            (pair && events_of_[e.other()]++ >= settings.max_events_per_body)) {
-            write_positions(b, end, false);
-            built_ = false;
-            return outcome::capped;
-        }
-        ++contacts;
-        if (pair)
-            handle_pair(e);
-        else
-            handle_wall(e);
+    contacts_ = 0;
+    for (lane* w : {&lanes_[0], &lanes_[1], &seam_hand_})
+        w->events = w->sphere_contacts = w->wall_contacts = 0;
+    bool const capped = halves_ ? take_by_halves(end, loops) : take_whole(end);
+    for (lane const* w : {&lanes_[0], &lanes_[1], &seam_hand_}) {
+        stats.events += w->events;
+        stats.sphere_contacts += w->sphere_contacts;
+        stats.wall_contacts += w->wall_contacts;
+    }
+    if (capped) {
+        write_positions(b, end, false, loops);
+        built_ = false;
+        return outcome::capped;
     }
     clock_ = end;
-    write_positions(b, end, true);
+    write_positions(b, end, true, loops);
     return outcome::done;
 }
 

@@ -15,6 +15,17 @@
 // when it crosses a face. A step costs its events plus one pass over the spheres (to notice
 // what a command changed, and to write their positions at the step's end).
 //
+// With threads lent and a gas large enough, the box is cut in two halves across x, each
+// with a lane of its own: its queue, and a thread that takes the events lying wholly inside
+// it (its spheres at least a cell from the cut, so every cell such an event reads or writes
+// is the lane's own). The events near the cut (the seam) wait in a queue of their own and
+// are taken between rounds, on one thread. A round takes every lane's events before the next
+// seam event, the two lanes at once. A lane that meets a seam event earlier than that (one
+// it predicted in the round, or one whose spheres are not its own) says so, and the other
+// lane's events after it are undone: their spheres' paths and cells put back, and predicted
+// again. Events are taken in the same order as on one thread, so the result is the same
+// bits for any number of threads.
+//
 // The physics is the step-by-step loop's (the same times of impact, touching tolerance and
 // contact rules); results differ from it in the last bits, since a path is kept from its last
 // change instead of from each step's start.
@@ -24,8 +35,10 @@
 #include "physics/vec.hpp"
 
 #include <array>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
+#include <mutex>
 #include <span>
 #include <vector>
 
@@ -34,6 +47,7 @@ struct collision_settings;
 struct collision_stats;
 struct collision_bodies;
 struct wall;
+class parallel_for;
 } // namespace kugel::physics
 
 namespace kugel::physics::continuous {
@@ -50,9 +64,15 @@ public:
     /// One step of h seconds. b.x0 and b.v0 hold the step's start, or b.x and b.v with
     /// b.drift_pending (a command may have changed any body since the last step: those are
     /// noticed and predicted again; bodies added, removed or reordered start the calendar
-    /// afresh); b.x and b.v receive its end. Declined, it leaves b as it was.
+    /// afresh); b.x and b.v receive its end. Declined, it leaves b as it was. With `loops`
+    /// (and a gas large enough), the halves' lanes take their events on two threads (above).
     outcome step(collision_settings const& settings, std::span<wall const> walls, collision_bodies const& b,
-                 double h, collision_stats& stats);
+                 double h, collision_stats& stats, parallel_for* loops = nullptr);
+
+    /// Rounds the halves took, and the events of them undone and taken again, since the
+    /// calendar was made.
+    std::uint64_t rounds() const { return rounds_; }
+    std::uint64_t undone() const { return undone_; }
 
     /// The next step starts afresh.
     void forget() { built_ = false; }
@@ -66,7 +86,7 @@ private:
         vec3 x;
         vec3 v;
         double since;
-        std::uint32_t version;
+        std::uint32_t version; ///< read and written atomically: a lane may read another's
         std::uint32_t next;
     };
     struct shape
@@ -83,16 +103,71 @@ private:
 
     static constexpr std::uint32_t none = 0xffffffffU;
 
+    /// Events waiting, by time. The events of the slice (bucket) opened last, as it was
+    /// opened: sorted, the earliest last. The events filed since into the slices opened so
+    /// far: a min-heap by operator>. Later events, filed unsorted by the slice (`bucket_` s
+    /// long) they fall in: the next `later.size()` slices' in a ring, the rest in `latest`.
+    /// The next slice is taken, sorted, when the last one taken and the heap have run empty,
+    /// and every ring's turn `latest` is filed again; stale events are dropped on the way.
+    /// So the heap holds few events, and a push costs a heap's log only for events due very
+    /// soon. (A slice sorted once costs fewer instructions than the same events popped one by
+    /// one from a heap: 5 % of a step.) The lists share one pool of blocks.
+    struct queue
+    {
+        std::vector<event> opened_events;
+        std::vector<event> heap;
+        event_lists lists;
+        std::vector<event_lists::list> later;
+        event_lists::list latest = event_lists::empty;
+        std::int64_t opened = 0; ///< the last slice taken
+    };
+
+    /// Which part of the box a cell lies in, by its x: a half (0, 1), or the seam between
+    /// them (2), the two layers of cells either side of the cut.
+    static constexpr int seam = 2;
+    /// Who takes events: one lane for the whole box (`whole`), or a half's lane, or the
+    /// seam's hand between rounds.
+    static constexpr int whole = -1;
+
+    /// An event a lane took in a round, and what undoing it puts back.
+    struct taken
+    {
+        event e;
+        vec3 x[2], v[2];
+        double since[2];
+        std::array<std::uint16_t, 3> cell;
+        std::uint8_t contact; ///< it counted a contact (sphere or wall)
+    };
+
+    /// What takes events: its queue, its clock and scratch, what it counted; in a round, the
+    /// events it files for others and what it took.
+    struct alignas(128) lane
+    {
+        int part = whole; ///< whole, a half (0, 1) or the seam
+        queue q;
+        double now = 0.0; ///< the event being handled, or the step's start
+        std::vector<std::uint32_t> near; ///< scratch: the spheres of the cells around one
+        std::uint64_t events = 0, contacts = 0, sphere_contacts = 0, wall_contacts = 0;
+        std::vector<event> for_other, for_seam; ///< filed in a round, for the serial part
+        std::vector<taken> log;
+        event furthest{}; ///< the last in order of the events in the log
+    };
+
     bool fits(std::span<wall const> walls, collision_bodies const& b);
     void build(collision_bodies const& b);
-    bool notice_changes(collision_bodies const& b);
-    /// b.x and b.v at time `at`; with `clamp`, no sphere left inside a wall.
-    void write_positions(collision_bodies const& b, double at, bool clamp) const;
+    /// Paths a command changed, on the lent threads: whether they were few enough to follow.
+    bool notice_changes(collision_bodies const& b, parallel_for* loops);
+    /// b.x and b.v at time `at`, on the lent threads; with `clamp`, no sphere left inside a wall.
+    void write_positions(collision_bodies const& b, double at, bool clamp, parallel_for* loops) const;
 
     vec3 position(std::uint32_t i, double t) const
     {
         sphere const& s = spheres_[i];
         return s.x + (t - s.since) * s.v;
+    }
+    std::uint32_t version_of(std::uint32_t i) const
+    {
+        return std::atomic_ref(const_cast<std::uint32_t&>(spheres_[i].version)).load(std::memory_order_relaxed);
     }
     void repath(std::uint32_t i, vec3 const& x, vec3 const& v, double t);
     /// A cell by its coordinates, at most `most_cells_on_an_axis` on each axis: 6 bytes.
@@ -105,40 +180,74 @@ private:
         return c[0] + dims_[0] * (c[1] + dims_[1] * c[2]);
     }
     cell_coordinates cell_of(vec3 const& x) const;
+    std::uint32_t cell_x_of(double x) const;
     /// A cell at one of the box's sides, the only cells from which a sphere can reach a wall.
     bool at_a_side(cell_coordinates const& c) const
     {
         return c[0] == 0U || c[1] == 0U || c[2] == 0U || c[0] + 1U == dims_[0] || c[1] + 1U == dims_[1] ||
                c[2] + 1U == dims_[2];
     }
+    /// The part of the box (a half or the seam) of cells at x.
+    int part_of(std::uint32_t x) const { return x + 2U <= cut_ ? 0 : x >= cut_ + 1U ? 1 : seam; }
+    /// The part of sphere i's cell; read atomically, since another lane may move it.
+    int part_of_sphere(std::uint32_t i) const
+    {
+        return part_of(std::atomic_ref(const_cast<std::uint16_t&>(cell_[i][0])).load(std::memory_order_relaxed));
+    }
+    /// The part an event falls in, from its spheres' cells at its time.
+    int part_of_event(event const& e) const;
     void link(std::uint32_t i);
     void unlink(std::uint32_t i);
     template <class F>
-    void for_each_in_cells(std::array<std::uint32_t, 3> const& lo, std::array<std::uint32_t, 3> const& hi, F f);
+    void for_each_in_cells(lane& w, std::array<std::uint32_t, 3> const& lo, std::array<std::uint32_t, 3> const& hi,
+                           F f);
 
-    void push(double time, event_kind kind, std::uint32_t body, std::uint32_t other);
+    void push(lane& w, double time, event_kind kind, std::uint32_t body, std::uint32_t other);
     std::int64_t bucket_of(double time) const { return static_cast<std::int64_t>(std::floor(time / bucket_)); }
-    void file(event const& e);
-    /// Takes the next bucket's current events, sorted, into opened_events_.
-    void open_bucket();
+    void file(queue& q, event const& e);
+    /// The seam's event: into the seam's heap.
+    void file_seam(event const& e);
+    /// Takes the next slice's current events, sorted, into q.opened_events.
+    void open_slice(queue& q);
+    /// The next event of q before the step's last slice ends, or nullptr.
+    event const* peek(queue& q, std::int64_t last);
+    event pop(queue& q);
     bool current(event const& e) const;
-    void predict_pair(std::uint32_t i, std::uint32_t j);
+    void predict_pair(lane& w, std::uint32_t i, std::uint32_t j);
     /// The first wall i reaches of those beside its cell (only on `only_axis`, if not −1).
-    void predict_walls(std::uint32_t i, int only_axis = -1);
-    void predict_crossing(std::uint32_t i);
+    void predict_walls(lane& w, std::uint32_t i, int only_axis = -1);
+    void predict_crossing(lane& w, std::uint32_t i);
     /// After i's path changed: its walls, its crossing and its neighbours but `except`.
-    void predict_body(std::uint32_t i, std::uint32_t except);
+    void predict_body(lane& w, std::uint32_t i, std::uint32_t except);
 
-    void handle_pair(event const& e);
-    void handle_wall(event const& e);
-    void handle_crossing(event const& e);
+    void handle_pair(lane& w, event const& e);
+    void handle_wall(lane& w, event const& e);
+    void handle_crossing(lane& w, event const& e);
+
+    /// The step's events on one lane: whether a cap was reached.
+    bool take_whole(double end);
+    /// The step's events by halves, their lanes on two threads if `helper` (else one after
+    /// the other): whether a cap was reached.
+    bool take_by_halves(double end, parallel_for* loops);
+    /// One round: each half's lane takes its events before `bound` (or a seam event found
+    /// earlier); events after the earliest such are undone.
+    void round(event const& bound, std::uint64_t budget, bool two_threads);
+    /// A half's lane in a round: its events before the bound, `budget` contacts at most.
+    void take_lane(lane& w, std::uint64_t budget);
+    /// An event lane w cannot take itself: for the seam's hand, and the round's bound.
+    void hand_over(lane& w, event const& e);
+    /// Events the lanes took after `bound` put back, their spheres predicted again.
+    void undo_after(event const& bound);
+    /// Files every waiting event again, for one lane or for halves.
+    void refile(bool halves);
+    /// The events the lanes filed in a round for another lane or the seam, filed.
+    void file_handed();
 
     // Set per step.
     collision_settings const* settings_ = nullptr;
     std::span<wall const> walls_;
-    collision_stats* stats_ = nullptr;
     double h_ = 0.0;
-    double now_ = 0.0; ///< the event being handled, or the step's start
+    std::int64_t last_ = 0; ///< the step's last slice
 
     bool built_ = false;
     double clock_ = 0.0; ///< s since the calendar was built, at the step's start
@@ -158,23 +267,38 @@ private:
     std::vector<std::uint32_t> head_;     ///< by cell: the first sphere of its list
     std::size_t members_ = 0;             ///< the world's spheres (bodies of radius > 0)
     std::vector<std::uint32_t> changed_;  ///< scratch: the paths a command changed
-    std::vector<std::uint32_t> near_;     ///< scratch: the spheres of the cells around one
-    /// The events of the bucket opened last, as it was opened: sorted, the earliest last.
-    std::vector<event> opened_events_;
-    /// The events filed since into the buckets opened so far: a min-heap by operator>.
-    std::vector<event> queue_;
-    /// Later events, filed unsorted by the bucket (a slice of a step, `bucket_` s long) they
-    /// fall in: the next `later_.size()` buckets' in a ring, the rest in `latest_`. The next
-    /// bucket is taken, sorted, when the last one taken and the queue have run empty, and
-    /// every ring's turn `latest_` is filed again; stale events are dropped on the way. So
-    /// the queue holds few events, and a push costs a heap's log only for events due very
-    /// soon. (A bucket sorted once costs fewer instructions than the same events popped one
-    /// by one from a heap: 5 % of a step.) The lists share one pool of blocks.
-    event_lists lists_;
-    std::vector<event_lists::list> later_;
-    event_lists::list latest_ = event_lists::empty;
+    std::vector<std::vector<std::uint32_t>> changed_in_; ///< scratch: changed_ by chunk of spheres
+    std::vector<event> refiled_;          ///< scratch: events on their way between lanes
+
+    // The lanes: lanes_[0] alone for the whole box; by halves, lanes_[0] and [1] for the
+    // halves and seam_hand_ between rounds, with the seam's events in seam_ (a min-heap).
+    bool halves_ = false;
+    std::uint32_t cut_ = 0; ///< the first cell of the upper half along x
+    std::array<lane, 2> lanes_;
+    lane seam_hand_;
+    std::vector<event> seam_;
+    std::uint64_t contacts_ = 0; ///< contacts in this step so far, for the step's cap
+    std::vector<std::uint32_t> undone_spheres_; ///< scratch
+    /// The round's bound: the earliest event a lane has handed over, or the next seam event.
+    /// Its time is read on every event; the event itself, on a tie in time, under the lock.
+    /// Set afresh by every round: a calendar moved between steps moves none of it.
+    struct alignas(128) signals
+    {
+        std::atomic<double> bound_time{0.0};
+        alignas(64) std::mutex lock;
+        event bound{};
+        alignas(64) std::atomic<int> mail{0}; ///< the helper's round: 0 idle, 1 posted, 2 done, 3 stop
+        std::atomic<int> arrived{0};
+        std::atomic<bool> helping{false};
+        std::uint64_t budget = 0;
+        signals() = default;
+        signals(signals&&) noexcept {}
+        signals& operator=(signals&&) noexcept { return *this; }
+    };
+    signals signals_;
+    std::uint64_t rounds_ = 0, undone_ = 0;
+
     double bucket_ = 1.0;
-    std::int64_t opened_ = 0; ///< the last bucket taken
     vec3 lo_ = vec3::Zero();
     vec3 width_ = vec3::Ones(), inverse_width_ = vec3::Ones();
     std::array<std::uint32_t, 3> dims_{1, 1, 1};

@@ -525,7 +525,7 @@ void resolve_continuous(collision_settings const& settings, std::span<wall const
     auto outcome = continuous::calendar::outcome::declined;
     if (settings.event_calendar && obstacles.empty() && !workspace.continuous.keep_segments &&
         !workspace.continuous.keep_contacts)
-        outcome = kept.step(settings, walls, bodies, h, stats);
+        outcome = kept.step(settings, walls, bodies, h, stats, loops);
     else
         kept.forget();
     bool complete = outcome == continuous::calendar::outcome::done;

@@ -38,6 +38,8 @@ struct gas_options
     /// The calendar (continuous/calendar.hpp) where the world is one it takes; the pins
     /// below are the step-by-step loop's.
     bool calendar = false;
+    std::uint64_t max_events_per_step = collision_settings{}.max_events_per_step;
+    std::uint64_t max_events_per_body = collision_settings{}.max_events_per_body;
 };
 
 /// n spheres of radius 0.05 m on a lattice filling 10% of a box, speeds up to max_speed in
@@ -47,6 +49,8 @@ world gas(gas_options const& o)
     world_settings s = colliding(collision_mode::continuous, integrator_kind::velocity_verlet);
     s.collisions.restitution = o.restitution;
     s.collisions.event_calendar = o.calendar;
+    s.collisions.max_events_per_step = o.max_events_per_step;
+    s.collisions.max_events_per_body = o.max_events_per_body;
     world w(s);
     double const r = 0.05;
     double const side = std::cbrt(o.n * 4.0 / 3.0 * 3.141592653589793 * r * r * r / 0.1);
@@ -124,18 +128,29 @@ TEST(ContinuousEvents, CoulombForcesArePinned)
 // The work at a step's and a slice's start (paths, walls, the grid's pairs and their
 // predictions) is spread over lent threads, each part into a list of its own; the queue
 // orders events by time and indices alone, so the result is the same bits for any count.
-// The calendar (below) takes its events on one thread, the rest of the step on those lent:
-// the same bits too.
+// The calendar with threads lent cuts the box into halves, each taken by a lane of its own,
+// and undoes a lane's events past a seam event found late (continuous/calendar.hpp): the
+// same bits too, on one thread (the lanes one after the other) and on two or three.
+//  - kept: a gas of 3,000 at up to 5 m/s;
+//  - kept_fast: at up to 50 m/s (each sphere crosses a cell in about a step), where lanes
+//    find seam events late and undo events (about 50 in 20 steps on one thread);
+//  - kept_capped, kept_body_capped: steps that reach the step's cap of contacts or a body's,
+//    which the lanes leave to the seam's hand, and which then finish discretely.
 TEST(ContinuousThreads, AnyNumberOfThreadsGivesTheSameBits)
 {
     gas_options const dilute{.n = 3000};
     gas_options const kept{.n = 3000, .max_speed = 5.0, .calendar = true};
-    for (auto const& [o, steps] :
-         {std::pair{dilute, 40}, std::pair{fast_gas, 30}, std::pair{mixed_sizes, 40}, std::pair{kept, 40}}) {
+    gas_options const kept_fast{.n = 3000, .max_speed = 50.0, .calendar = true};
+    gas_options const kept_capped{.n = 3000, .max_speed = 5.0, .calendar = true, .max_events_per_step = 300};
+    gas_options const kept_body_capped{.n = 3000, .max_speed = 50.0, .calendar = true, .max_events_per_body = 3};
+    for (auto const& [o, steps] : {std::pair{dilute, 40}, std::pair{fast_gas, 30}, std::pair{mixed_sizes, 40},
+                                   std::pair{kept, 40}, std::pair{kept_fast, 20}, std::pair{kept_capped, 10},
+                                   std::pair{kept_body_capped, 10}}) {
         std::uint64_t const alone = pinned(o, steps);
         for (std::size_t const threads : {1U, 2U, 3U}) {
             thread_pool pool(threads);
-            EXPECT_EQ(pinned(o, steps, &pool), alone) << threads << " threads, " << o.n << " spheres";
+            EXPECT_EQ(pinned(o, steps, &pool), alone)
+                << threads << " threads, " << o.n << " spheres at up to " << o.max_speed << " m/s";
         }
     }
 }
