@@ -15,11 +15,12 @@
 // when it crosses a face. A step costs its events plus one pass over the spheres (to notice
 // what a command changed, and to write their positions at the step's end).
 //
-// With threads lent and a gas large enough, the box is cut in two halves across x, each
-// with a lane of its own: its queue, and a thread that takes the events lying wholly inside
-// it (its spheres at least a cell from the cut, so every cell such an event reads or writes
-// is the lane's own). The events near the cut (the seam) wait in a queue of their own and
-// are taken between rounds, on one thread. A round takes every lane's events before the next
+// With threads lent and a gas large enough, the box is cut in two halves across x by a
+// layer of cells, the seam, and each half has a lane of its own: its queue, and a thread
+// that takes the events of its spheres (they write only the half's cells, and read those
+// beside them, the half's and the seam's, which nothing writes in a round). The events of
+// the seam's spheres wait in a queue of their own and are taken between rounds, on one
+// thread. A round takes every lane's events before the next
 // seam event, the two lanes at once. A lane that meets a seam event earlier than that (one
 // it predicted in the round, or one whose spheres are not its own) says so, and the other
 // lane's events after it are undone: their spheres' paths and cells put back, and predicted
@@ -123,7 +124,8 @@ private:
     };
 
     /// Which part of the box a cell lies in, by its x: a half (0, 1), or the seam between
-    /// them (2), the two layers of cells either side of the cut.
+    /// them (2), one layer of cells. An event of a half's spheres writes only their cells and
+    /// reads those beside them: the half's own cells and the seam's, which neither half writes.
     static constexpr int seam = 2;
     /// Who takes events: one lane for the whole box (`whole`), or a half's lane, or the
     /// seam's hand between rounds.
@@ -188,7 +190,7 @@ private:
                c[2] + 1U == dims_[2];
     }
     /// The part of the box (a half or the seam) of cells at x.
-    int part_of(std::uint32_t x) const { return x + 2U <= cut_ ? 0 : x >= cut_ + 1U ? 1 : seam; }
+    int part_of(std::uint32_t x) const { return x < cut_ ? 0 : x > cut_ ? 1 : seam; }
     /// The part of sphere i's cell; read atomically, since another lane may move it.
     int part_of_sphere(std::uint32_t i) const
     {
@@ -273,7 +275,7 @@ private:
     // The lanes: lanes_[0] alone for the whole box; by halves, lanes_[0] and [1] for the
     // halves and seam_hand_ between rounds, with the seam's events in seam_ (a min-heap).
     bool halves_ = false;
-    std::uint32_t cut_ = 0; ///< the first cell of the upper half along x
+    std::uint32_t cut_ = 0; ///< the seam's cells along x
     std::array<lane, 2> lanes_;
     lane seam_hand_;
     std::vector<event> seam_;

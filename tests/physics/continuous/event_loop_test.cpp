@@ -155,6 +155,21 @@ TEST(ContinuousThreads, AnyNumberOfThreadsGivesTheSameBits)
     }
 }
 
+// Threads lent to a world and taken back between steps: the calendar files its waiting
+// events again, by halves or for one lane, and goes on with the same bits.
+TEST(ContinuousThreads, ThreadsLentAndTakenBackBetweenStepsGiveTheSameBits)
+{
+    gas_options const kept{.n = 3000, .max_speed = 20.0, .calendar = true};
+    std::uint64_t const alone = pinned(kept, 30);
+    thread_pool pool(2);
+    world w = gas(kept);
+    for (int i = 0; i < 30; ++i) {
+        w.set_parallel_for(i / 10 == 1 ? nullptr : &pool, 0); // lent, taken back, lent again
+        w.step(1.0 / 60.0);
+    }
+    EXPECT_EQ(state_hash(w), alone);
+}
+
 // A room of the continuous mode starts empty, or holds point masses only: a step then has no
 // sphere to slice by (a step once divided 0 by 0 for its slice count and looped for ever).
 TEST(ContinuousEvents, AWorldWithoutSpheresSteps)
