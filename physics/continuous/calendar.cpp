@@ -339,10 +339,20 @@ bool calendar::notice_changes(collision_bodies const& b, parallel_for* loops)
     run_chunks(loops, spheres_.size(), [&](std::size_t chunk, std::size_t begin, std::size_t end) {
         std::vector<std::uint32_t>& found = changed_in_[chunk];
         found.clear();
-        for (auto i = static_cast<std::uint32_t>(begin); i < end && found.size() <= most; ++i) {
-            std::uint32_t const s = slot_[i];
-            if (!same(b.x0[s], position(i, clock_)) || !same(b.v0[s], spheres_[i].v))
+        // (what the loop reads, in locals: a write to `found` could otherwise alias them)
+        sphere const* const spheres = spheres_.data();
+        std::uint32_t const* const slots = slot_.data();
+        vec3 const* const x0 = b.x0.data();
+        vec3 const* const v0 = b.v0.data();
+        double const now = clock_;
+        for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i) {
+            sphere const& p = spheres[i];
+            std::uint32_t const s = slots[i];
+            if (!same(x0[s], p.x + (now - p.since) * p.v) || !same(v0[s], p.v)) {
+                if (found.size() > most)
+                    break;
                 found.push_back(i);
+            }
         }
     });
     changed_.clear();
@@ -666,15 +676,22 @@ void calendar::write_positions(collision_bodies const& b, double at, bool clamp,
 {
     detail::wall_set const walls(walls_);
     run_chunks(loops, spheres_.size(), [&](std::size_t, std::size_t begin, std::size_t end) {
+        // (what the loop reads, in locals: the writes to x and v could otherwise alias them)
+        sphere const* const spheres = spheres_.data();
+        std::uint32_t const* const slots = slot_.data();
+        cell_coordinates const* const cells = cell_.data();
+        vec3* const x = b.x.data();
+        vec3* const v = b.v.data();
         for (auto i = static_cast<std::uint32_t>(begin); i < end; ++i) {
-            std::uint32_t const s = slot_[i];
-            b.x[s] = position(i, at);
-            b.v[s] = spheres_[i].v;
+            sphere const& p = spheres[i];
+            std::uint32_t const s = slots[i];
+            x[s] = p.x + (at - p.since) * p.v;
+            v[s] = p.v;
             // Rounding may leave a sphere inside a wall by an ulp, and only one in the cells
             // beside a wall can be (a cell is wider than a diameter): the clamp every
             // continuous step ends with (clamp_to_walls), without a pass over the rest.
-            if (clamp && at_a_side(cell_[i]))
-                detail::clamp_to_walls(walls, b.x[s], b.v[s], shape_of(i).radius, shape_of(i).inverse_mass);
+            if (clamp && at_a_side(cells[i]))
+                detail::clamp_to_walls(walls, x[s], v[s], shape_of(i).radius, shape_of(i).inverse_mass);
         }
     });
 }
