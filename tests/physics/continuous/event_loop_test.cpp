@@ -170,6 +170,35 @@ TEST(ContinuousThreads, ThreadsLentAndTakenBackBetweenStepsGiveTheSameBits)
     EXPECT_EQ(state_hash(w), alone);
 }
 
+// Commands between steps reach the calendar's lanes too: impulses, and spheres set down
+// elsewhere (across the seam), noticed and predicted again; the same bits on one thread
+// and on two.
+TEST(ContinuousThreads, CommandsBetweenStepsGiveTheSameBitsOnAnyNumberOfThreads)
+{
+    gas_options const kept{.n = 3000, .max_speed = 5.0, .calendar = true};
+    auto const run = [&](parallel_for* loops) {
+        world w = gas(kept);
+        w.set_parallel_for(loops, 0);
+        for (int i = 0; i < 30; ++i) {
+            if (i % 10 == 5) {
+                std::span<body_id const> const ids = w.bodies().ids();
+                for (std::size_t k = 0; k < ids.size(); k += 97)
+                    w.apply_impulse(ids[k], vec3(0.3, -0.2, 0.1));
+                // a sphere near one side set down at the middle, where the seam runs, and on
+                w.set_state(ids[0], vec3(0.0013, 0.0021, 0.0034), vec3(-2.0, 0.5, 0.0));
+            }
+            w.step(1.0 / 60.0);
+        }
+        EXPECT_EQ(w.escaped(), 0U);
+        return state_hash(w);
+    };
+    std::uint64_t const alone = run(nullptr);
+    for (std::size_t const threads : {1U, 2U}) {
+        thread_pool pool(threads);
+        EXPECT_EQ(run(&pool), alone) << threads << " threads";
+    }
+}
+
 // A room of the continuous mode starts empty, or holds point masses only: a step then has no
 // sphere to slice by (a step once divided 0 by 0 for its slice count and looped for ever).
 TEST(ContinuousEvents, AWorldWithoutSpheresSteps)
