@@ -704,25 +704,29 @@ bool calendar::take_whole(double end)
         if (next == nullptr || next->time > end)
             return false;
         event const e = pop(w.q);
-        if (!current(e))
-            continue;
-        w.now = e.time;
-        ++w.events;
-        if (e.kind() == event_kind::crossing) {
-            handle_crossing(w, e);
-            continue;
-        }
-        bool const pair = e.kind() == event_kind::pair;
-        if (contacts_ == settings_->max_events_per_step ||
-            events_of_[e.body]++ >= settings_->max_events_per_body ||
-            (pair && events_of_[e.other()]++ >= settings_->max_events_per_body))
+        if (current(e) && take_one(w, e))
             return true;
-        ++contacts_;
-        if (pair)
-            handle_pair(w, e);
-        else
-            handle_wall(w, e);
     }
+}
+
+[[gnu::always_inline]] inline bool calendar::take_one(lane& w, event const& e)
+{
+    w.now = e.time;
+    ++w.events;
+    if (e.kind() == event_kind::crossing) {
+        handle_crossing(w, e);
+        return false;
+    }
+    bool const pair = e.kind() == event_kind::pair;
+    if (contacts_ == settings_->max_events_per_step || events_of_[e.body]++ >= settings_->max_events_per_body ||
+        (pair && events_of_[e.other()]++ >= settings_->max_events_per_body))
+        return true;
+    ++contacts_;
+    if (pair)
+        handle_pair(w, e);
+    else
+        handle_wall(w, e);
+    return false;
 }
 
 void calendar::hand_over(lane& w, event const& e)
@@ -928,23 +932,8 @@ bool calendar::take_by_halves(double end, parallel_for* loops)
             std::pop_heap(seam_.begin(), seam_.end(), std::greater<>{});
             event const e = seam_.back();
             seam_.pop_back();
-            lane& w = seam_hand_;
-            w.now = e.time;
-            ++w.events;
-            if (e.kind() == event_kind::crossing) {
-                handle_crossing(w, e);
-                continue;
-            }
-            bool const pair = e.kind() == event_kind::pair;
-            if (contacts_ == settings_->max_events_per_step ||
-                events_of_[e.body]++ >= settings_->max_events_per_body ||
-                (pair && events_of_[e.other()]++ >= settings_->max_events_per_body))
+            if (take_one(seam_hand_, e)) // (current: stale ones were dropped above)
                 return true;
-            ++contacts_;
-            if (pair)
-                handle_pair(w, e);
-            else
-                handle_wall(w, e);
         }
     };
     if (loops == nullptr)

@@ -228,6 +228,9 @@ private:
 
     /// The step's events on one lane: whether a cap was reached.
     bool take_whole(double end);
+    /// A current event taken by w alone, counted against the step's caps: whether one was
+    /// reached (the event then not taken).
+    bool take_one(lane& w, event const& e);
     /// The step's events by halves, their lanes on two threads if `helper` (else one after
     /// the other): whether a cap was reached.
     bool take_by_halves(double end, parallel_for* loops);
