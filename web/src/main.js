@@ -55,6 +55,7 @@ const state = {
   asked_rate: null, // Hz: the snapshot rate the page asked for
   bytes_per_second: null, // this page's WebSocket bytes received, over the last second
   bytes_received: 0, // this page's WebSocket bytes received since it joined the room
+  bytes_read: 0, // bytes_received as it was when the page read its latest snapshot (the HUD's timer may run late)
   bytes_rate_since: null, // [local s, bytes received]: where bytes_per_second was measured from
   hud_at: null, // local s (performance.now): when the HUD and the counts above were last updated
   snapshots_read: 0, // snapshots turned into columns since the page opened
@@ -254,6 +255,7 @@ function on_welcome(message) {
 function on_snapshot(message, snapshot) {
   const now = snapshot.received_at;
   state.snapshots_read++;
+  state.bytes_read = connection?.bytes.total ?? 0;
   state.form = snapshot.form === 'full' ? 'full' : 'compact';
   if (snapshot.form === 'key') state.keyframes++;
   if (snapshot.form === 'delta') state.deltas++;

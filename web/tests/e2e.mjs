@@ -722,7 +722,7 @@ test('a 10,000-body room at the room\'s snapshot rate in the compact form: every
   const biggest = Math.max(...frames_received.slice(frames_at_load).map((f) => f.bytes));
   const report = `${read} snapshots read in ${seconds.toFixed(1)} s (${end.keyframes - start.keyframes} keyframes); since the start the server wrote ${written}, ` +
     `dropped ${counters.kugel_snapshots_dropped_total} for a slow reader, skipped ${counters.kugel_snapshots_skipped_total} while encoding, over ${caught_up.tick} ticks; ` +
-    `bytes: server ${counters.kugel_bytes_out_total}, Chromium ${chromium}, page ${caught_up.bytes_received}; page ${page_rate.toPrecision(3)} B/s, HUD ${hud_samples.map((h) => `${h.rate.toPrecision(3)} at ${h.at.toFixed(1)} s`).join(', ')} B/s`;
+    `bytes: server ${counters.kugel_bytes_out_total}, Chromium ${chromium}, page ${caught_up.bytes_read}; page ${page_rate.toPrecision(3)} B/s, HUD ${hud_samples.map((h) => `${h.rate.toPrecision(3)} at ${h.at.toFixed(1)} s`).join(', ')} B/s`;
   console.log(`# ${report}`);
   // Compact, at the room's rate: granted, and the page did not have to ask for less.
   assert.equal(end.snapshots.form, 'compact');
@@ -736,9 +736,11 @@ test('a 10,000-body room at the room\'s snapshot rate in the compact form: every
   // Every body, in the newest snapshot and on the canvas.
   assert.deepEqual(await page.evaluate(() => [window.kugel.state.bodies, window.kugel.drawn(), window.kugel.latest().id.length]), [10000, 10000, 10000]);
   // The page counted the bytes the server sent and Chromium received (up to the frames on
-  // their way), and its HUD shows about what it read per second.
-  assert.ok(Math.abs(caught_up.bytes_received - counters.kugel_bytes_out_total) <= 4 * biggest, report);
-  assert.ok(Math.abs(caught_up.bytes_received - chromium) <= 4 * biggest, report);
+  // their way), and its HUD shows about what it read per second. (The bytes as counted when
+  // it read its latest snapshot: the HUD's own count waits for its timer, which a busy
+  // Chromium may hold back for seconds while the snapshots are read.)
+  assert.ok(Math.abs(caught_up.bytes_read - counters.kugel_bytes_out_total) <= 4 * biggest, report);
+  assert.ok(Math.abs(caught_up.bytes_read - chromium) <= 4 * biggest, report);
   // Each reading shows what the page counted since an earlier reading of its own, at least a
   // second before, over the time between (to the three digits shown): the HUD says what the
   // page read per second. Not asked: that it read evenly. Chromium drawing in software here
