@@ -110,6 +110,11 @@ struct collision_stats
     std::uint64_t obstacle_contacts = 0; ///< sphere–box responses
     std::uint64_t capped_steps = 0;      ///< continuous steps (or discrete sweeps) that hit an event cap
     std::uint64_t events = 0;            ///< continuous-mode events processed (the sweep's too)
+    /// Continuous mode by halves (continuous/calendar.hpp): the rounds in which the two lanes
+    /// took their events up to the next seam event, and the events a lane took past a seam
+    /// event found late, undone and taken again (not in `events` twice)
+    std::uint64_t rounds = 0;
+    std::uint64_t events_undone = 0;
     /// Discrete mode: bodies that moved farther than sweep_fraction of their radius in a step
     /// and were swept (once per body and step)
     std::uint64_t swept_bodies = 0;

@@ -209,6 +209,11 @@ nlohmann::ordered_json run_headless(scene::scene const& s, std::uint64_t steps,
     summary["wall_collisions"] = contacts.wall_contacts;
     summary["obstacle_collisions"] = contacts.obstacle_contacts;
     summary["events_capped"] = contacts.capped_steps;
+    // The continuous mode's events (the sweep's too) and, by halves on two threads, its
+    // rounds and the events a lane took past a seam event found late, undone and taken again.
+    summary["events"] = contacts.events;
+    summary["event_rounds"] = contacts.rounds;
+    summary["events_undone"] = contacts.events_undone;
     // The discrete mode's sweep of fast bodies (collisions.sweep): bodies swept, and fast
     // bodies not swept, each a contact that may have been missed (zero while the sweep is on).
     summary["swept_bodies"] = contacts.swept_bodies;

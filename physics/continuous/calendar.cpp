@@ -1046,7 +1046,10 @@ calendar::outcome calendar::step(collision_settings const& settings, std::span<w
     contacts_ = 0;
     for (lane* w : {&lanes_[0], &lanes_[1], &seam_hand_})
         w->events = w->sphere_contacts = w->wall_contacts = 0;
+    rounds_ = undone_ = 0;
     bool const capped = halves_ ? take_by_halves(end, loops) : take_whole(end);
+    stats.rounds += rounds_;
+    stats.events_undone += undone_;
     for (lane const* w : {&lanes_[0], &lanes_[1], &seam_hand_}) {
         stats.events += w->events;
         stats.sphere_contacts += w->sphere_contacts;

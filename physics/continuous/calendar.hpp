@@ -70,11 +70,6 @@ public:
     outcome step(collision_settings const& settings, std::span<wall const> walls, collision_bodies const& b,
                  double h, collision_stats& stats, parallel_for* loops = nullptr);
 
-    /// Rounds the halves took, and the events of them undone and taken again, since the
-    /// calendar was made.
-    std::uint64_t rounds() const { return rounds_; }
-    std::uint64_t undone() const { return undone_; }
-
     /// The next step starts afresh.
     void forget() { built_ = false; }
 
@@ -301,7 +296,7 @@ private:
         signals& operator=(signals&&) noexcept { return *this; }
     };
     signals signals_;
-    std::uint64_t rounds_ = 0, undone_ = 0;
+    std::uint64_t rounds_ = 0, undone_ = 0; ///< this step's (collision_stats)
 
     double bucket_ = 1.0;
     vec3 lo_ = vec3::Zero();

@@ -87,6 +87,12 @@ TEST(HeadlessCommand, GasSummaryReportsCollisionsAndNothingEscapes)
     EXPECT_EQ(summary["escaped"], 0);
     EXPECT_EQ(summary["events_capped"], 0);
     EXPECT_GT(summary["sphere_collisions"].get<int>(), 100);
+    // Every contact was an event; so were the cells crossed. On one thread the calendar takes
+    // its events in one lane: no rounds, nothing undone.
+    EXPECT_GT(summary["events"].get<std::uint64_t>(),
+              summary["sphere_collisions"].get<std::uint64_t>() + summary["wall_collisions"].get<std::uint64_t>());
+    EXPECT_EQ(summary["event_rounds"], 0);
+    EXPECT_EQ(summary["events_undone"], 0);
     EXPECT_LE(summary["max_overlap"].get<double>(), 1e-9);
     EXPECT_LT(std::abs(summary["energy_rel_drift"].get<double>()), 1e-9);
     EXPECT_GT(summary["bounds"]["radius"].get<double>(), 0.0);

@@ -83,7 +83,9 @@ world gas(gas_options const& o)
     return w;
 }
 
-std::uint64_t pinned(gas_options const& o, int steps, parallel_for* loops = nullptr)
+/// The state's hash after `steps` steps; and the run's counts in `counts`, if given.
+std::uint64_t pinned(gas_options const& o, int steps, parallel_for* loops = nullptr,
+                     collision_stats* counts = nullptr)
 {
     world w = gas(o);
     w.set_parallel_for(loops, 0);
@@ -94,6 +96,8 @@ std::uint64_t pinned(gas_options const& o, int steps, parallel_for* loops = null
     if (w.collisions().capped_steps == 0) { // past a cap a step finishes discretely
         EXPECT_LE(w.max_overlap(), 1e-9);
     }
+    if (counts)
+        *counts = w.collisions();
     return state_hash(w);
 }
 
@@ -133,9 +137,12 @@ TEST(ContinuousEvents, CoulombForcesArePinned)
 // same bits too, on one thread (the lanes one after the other) and on two or three.
 //  - kept: a gas of 3,000 at up to 5 m/s;
 //  - kept_fast: at up to 50 m/s (each sphere crosses a cell in about a step), where lanes
-//    find seam events late and undo events (about 50 in 20 steps on one thread);
+//    find seam events late and undo events (checked on one thread, where the lanes take their
+//    rounds one after the other and the count is the same every run);
 //  - kept_capped, kept_body_capped: steps that reach the step's cap of contacts or a body's,
 //    which the lanes leave to the seam's hand, and which then finish discretely.
+// The events taken and the contacts are the same counts too (those undone are not counted
+// twice); the calendar takes rounds only with threads lent.
 TEST(ContinuousThreads, AnyNumberOfThreadsGivesTheSameBits)
 {
     gas_options const dilute{.n = 3000};
@@ -143,14 +150,30 @@ TEST(ContinuousThreads, AnyNumberOfThreadsGivesTheSameBits)
     gas_options const kept_fast{.n = 3000, .max_speed = 50.0, .calendar = true};
     gas_options const kept_capped{.n = 3000, .max_speed = 5.0, .calendar = true, .max_events_per_step = 300};
     gas_options const kept_body_capped{.n = 3000, .max_speed = 50.0, .calendar = true, .max_events_per_body = 3};
-    for (auto const& [o, steps] : {std::pair{dilute, 40}, std::pair{fast_gas, 30}, std::pair{mixed_sizes, 40},
-                                   std::pair{kept, 40}, std::pair{kept_fast, 20}, std::pair{kept_capped, 10},
-                                   std::pair{kept_body_capped, 10}}) {
-        std::uint64_t const alone = pinned(o, steps);
+    struct run
+    {
+        gas_options o;
+        int steps;
+        bool undoes = false; ///< events undone on one thread
+    };
+    for (auto const& [o, steps, undoes] : {run{dilute, 40}, run{fast_gas, 30}, run{mixed_sizes, 40}, run{kept, 40},
+                                           run{kept_fast, 20, true}, run{kept_capped, 10}, run{kept_body_capped, 10}}) {
+        collision_stats alone_counts;
+        std::uint64_t const alone = pinned(o, steps, nullptr, &alone_counts);
+        EXPECT_EQ(alone_counts.rounds, 0U);
         for (std::size_t const threads : {1U, 2U, 3U}) {
             thread_pool pool(threads);
-            EXPECT_EQ(pinned(o, steps, &pool), alone)
+            collision_stats counts;
+            EXPECT_EQ(pinned(o, steps, &pool, &counts), alone)
                 << threads << " threads, " << o.n << " spheres at up to " << o.max_speed << " m/s";
+            EXPECT_EQ(counts.events, alone_counts.events) << threads << " threads";
+            EXPECT_EQ(counts.contacts(), alone_counts.contacts()) << threads << " threads";
+            if (o.calendar) {
+                EXPECT_GT(counts.rounds, 0U) << threads << " threads";
+            }
+            if (undoes && threads == 1) {
+                EXPECT_GT(counts.events_undone, 0U);
+            }
         }
     }
 }
