@@ -172,11 +172,10 @@ int calendar::part_of_event(event const& e) const
     };
     switch (e.kind()) {
     case event_kind::crossing: {
-        std::uint32_t const x = cell_[i][0];
-        int const from = part_of(x);
+        int const from = part_of(cell_[i][0]);
         if (e.other() / 2U != 0U)
             return from;
-        return part_of((e.other() & 1U) != 0U ? x + 1U : x - 1U) == from ? from : seam;
+        return part_of(x_crossed_into(e)) == from ? from : seam;
     }
     case event_kind::pair: {
         int const p = at(i);
@@ -771,7 +770,7 @@ void calendar::take_lane(lane& w, std::uint64_t budget)
         bool const crossing = e.kind() == event_kind::crossing;
         bool own = part_of_sphere(i) == w.part;
         if (crossing && e.other() / 2U == 0U)
-            own = own && part_of((e.other() & 1U) != 0U ? cell_[i][0] + 1U : cell_[i][0] - 1U) == w.part;
+            own = own && part_of(x_crossed_into(e)) == w.part;
         if (pair)
             own = own && part_of_sphere(e.other()) == w.part;
         if (!own || (!crossing && (w.contacts >= budget || events_of_[i] >= most ||

@@ -191,6 +191,12 @@ private:
     {
         return part_of(std::atomic_ref(const_cast<std::uint16_t&>(cell_[i][0])).load(std::memory_order_relaxed));
     }
+    /// The x of the cell a crossing along x takes its sphere into.
+    std::uint32_t x_crossed_into(event const& e) const
+    {
+        std::uint32_t const x = cell_[e.body][0];
+        return (e.other() & 1U) != 0U ? x + 1U : x - 1U;
+    }
     /// The part an event falls in, from its spheres' cells at its time.
     int part_of_event(event const& e) const;
     void link(std::uint32_t i);
