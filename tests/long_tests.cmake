@@ -13,6 +13,12 @@ foreach(test IN ITEMS
     physics_tests.Broadphases.GiveTheSameSimulationBitForBit
     physics_tests.DiscreteThreads.AnyNumberOfThreadsGivesTheSameBits
     physics_tests.SortedBodies.LargeWorldsKeepTheirBodiesInCellOrderAndTheirResults
-    server_tests.HeadlessRun.GalaxyRunsWithTheTreeAndKeepsEnergy)
+    server_tests.HeadlessRun.GalaxyRunsWithTheTreeAndKeepsEnergy
+    extremes_tests.StepSize.AMillionSecondStepIsFiniteAndKeepsSpheresInTheBox
+    extremes_tests.StepSize.AMillionSecondStepOfAnOrbitIsFiniteOrRefused
+    server_tests.Interest.TheCompactStreamIsTheFullFormFilteredByTheSameInterestThroughChurn
+    physics_tests.ContinuousThreads.AnyNumberOfThreadsGivesTheSameBits
+    physics_tests.MinimumBoundingSphere.MillionPointsWithKnownAnswer
+    server_tests.HostileInput.EachIsAnsweredAsDocumentedAndChangesNothing)
   set_tests_properties(${test} PROPERTIES COST 100)
 endforeach()
