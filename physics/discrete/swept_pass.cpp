@@ -137,6 +137,7 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
     for (int attempt = 1;; ++attempt) {
         sw.events->continuous.keep_segments = !every_sphere; // the paths step 4 looks at
         sw.events->continuous.keep_contacts = sw.keep_contacts;
+        sw.events->continuous.left_to_discrete = step.settings.sweep_fraction / h;
         // 2. Copies of the swept bodies, in slot order, on the paths free motion gave them.
         sw.members.clear();
         for (std::uint32_t i = 0; i < n; ++i)
