@@ -230,6 +230,7 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
             continue; // met nothing: it keeps what the wall pass left
         b.x[i] = sw.x[k];
         b.v[i] = sw.v[k];
+        sw.placed.push_back(i);
         if (!is_fast)
             sw.moved_others.push_back(i);
     }

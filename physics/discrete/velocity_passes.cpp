@@ -3,6 +3,7 @@
 #include "passes.hpp"
 
 #include <algorithm>
+#include <iterator>
 #include <utility>
 
 namespace kugel::physics::discrete {
@@ -359,6 +360,13 @@ void velocity_passes(step_context const& step, free_accelerations free_a, discre
     std::span<vec3> const v = step.bodies.v;
     std::span<vec3> const x = step.bodies.x;
     bool const move_by_change = free_a.any(); // without forces nothing sinks
+    auto& placed = ws.placed;
+    if (move_by_change) {
+        placed.clear();
+        std::set_union(ws.moved.begin(), ws.moved.end(), ws.swept.placed.begin(), ws.swept.placed.end(),
+                       std::back_inserter(placed));
+    }
+    std::span<vec3 const> const x0 = step.bodies.x0;
     each_slab(ws, step.loops, [&](contact_slab& slab) {
         for (std::size_t listed = 0; listed < slab.copied.size(); ++listed) {
             fetch_ahead(slab.copied, listed, [&](std::uint32_t later) { return &v[ws.grid.slot(later)]; });
@@ -367,9 +375,19 @@ void velocity_passes(step_context const& step, free_accelerations free_a, discre
             vec3 const solved = moving[slab.first_copied + listed].v;
             if (move_by_change) {
                 // Free motion moved the sphere with its velocity before the contacts: it
-                // moves as it would have with the velocity they leave it.
+                // moves as it would have with the velocity they leave it, from where it
+                // started, x₀ + h·v (a semi-implicit Euler step; free motion by another
+                // integrator went farther or less far than h·v, by what `beyond` says: a
+                // sphere stopped on another kept that, and a pile rose and fell by ½·a·h²
+                // every other step, and never came to rest). A sphere a wall, a box or the
+                // sweep moved has no such start: it moves by the change alone.
                 packed_sphere& p = ws.grid.sphere(k);
+                vec3 const beyond = std::binary_search(placed.begin(), placed.end(), i)
+                                        ? vec3::Zero()
+                                        : vec3(p.x - (x0[i] + step.h * v[i]));
                 p.x += step.h * (solved - v[i]);
+                if (!beyond.isZero(0.0))
+                    p.x -= beyond;
                 v[i] = solved;
                 detail::push_out_and_meet_walls(step.walls, p.x, v[i], p.radius, ws.grid.inverse_mass(k),
                                                 free_a[i], step.settings, step.h);

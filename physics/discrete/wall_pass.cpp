@@ -148,6 +148,7 @@ wall_pass_result wall_pass(step_context const& step, discrete_workspace& ws, col
     double largest_change = 0.0;
     ws.swept.fast.clear();
     ws.swept.fast_start.clear();
+    ws.swept.placed.clear();
     for (wall_chunk const& chunk : ws.wall_chunks) {
         ws.moved.insert(ws.moved.end(), chunk.moved.begin(), chunk.moved.end());
         ws.swept.fast.insert(ws.swept.fast.end(), chunk.fast.begin(), chunk.fast.end());

@@ -66,6 +66,7 @@ struct swept_workspace
     std::vector<double> inverse_mass, radius;
     std::vector<vec3> v_in;           ///< m/s, each copy's velocity before the events
     std::vector<std::uint32_t> moved_others; ///< the slow bodies the events changed
+    std::vector<std::uint32_t> placed; ///< every body the events changed, fast or not, ascending
     std::unique_ptr<collision_workspace> events; ///< the continuous mode's, over the copies
     /// Kept only when keep_contacts is set (a world that reports contacts): the events'
     /// responses to pairs of spheres, by body slot, and when (s from the step's start).
@@ -86,6 +87,9 @@ struct discrete_workspace
     std::vector<std::uint64_t> cell_keys; ///< cell key by body slot, from the wall pass
     std::vector<std::uint32_t> cell_x;    ///< with threads: and the cell's x-coordinate
     std::vector<std::uint32_t> moved;     ///< the spheres walls and boxes moved
+    /// Under forces: the spheres walls, boxes or the sweep moved from where free motion left
+    /// them, ascending (the velocity passes' to know)
+    std::vector<std::uint32_t> placed;
     swept_workspace swept;                ///< the fast bodies' sweep
 
     // Cells and near pairs
