@@ -1,8 +1,9 @@
 #pragma once
 
-// Scenes the collision tests share (tests/physics/collisions_test.cpp and the discrete step's
-// tests/physics/discrete/discrete_step_test.cpp).
+// Scenes the collision tests share (tests/physics/collisions_test.cpp, the discrete step's
+// tests/physics/discrete/discrete_step_test.cpp and the sleeping islands' world_sleep_test.cpp).
 
+#include "physics/forces.hpp"
 #include "physics/parallel_for.hpp"
 #include "physics/world.hpp"
 
@@ -31,6 +32,23 @@ inline void add_box(world& w, double L)
             w.add_wall({make_plane(n, -L), 0.0, 0.0});
         }
     }
+}
+
+/// n spheres of radius r (density 1000) stacked on a floor, touching, under gravity:
+/// restitution 0.5, friction 0.5 between spheres, the floor damping 0.5 and friction 0.5.
+inline world stack_on_the_floor(int n, double r, bool sleep = true,
+                                integrator_kind integrator = integrator_kind::semi_implicit_euler)
+{
+    world_settings s = colliding(collision_mode::discrete, integrator);
+    s.collisions.restitution = 0.5;
+    s.collisions.friction = 0.5;
+    s.collisions.sleep = sleep;
+    world w(s);
+    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
+    w.add_wall({make_plane(vec3::UnitZ(), 0.0), 0.5, 0.5});
+    for (int i = 0; i < n; ++i)
+        w.add_body(ball({0, 0, r + 2 * r * i}, vec3::Zero(), r, 1000 * 4.0 / 3.0 * 3.141592653589793 * r * r * r));
+    return w;
 }
 
 /// Discrete mode: 200 spheres dropped into a box under gravity. Continuous mode: the same

@@ -19,22 +19,6 @@ using test_support::state_hash;
 constexpr double dt = 1.0 / 60.0;
 constexpr double pi = 3.141592653589793;
 
-/// n spheres of radius r (density 1000) stacked on a floor, touching, under gravity:
-/// restitution 0.5, friction 0.5 between spheres, the floor damping 0.5 and friction 0.5.
-world stack_on_the_floor(int n, double r, bool sleep = true)
-{
-    world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
-    s.collisions.restitution = 0.5;
-    s.collisions.friction = 0.5;
-    s.collisions.sleep = sleep;
-    world w(s);
-    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
-    w.add_wall({make_plane(vec3::UnitZ(), 0.0), 0.5, 0.5});
-    for (int i = 0; i < n; ++i)
-        w.add_body(ball({0, 0, r + 2 * r * i}, vec3::Zero(), r, 1000 * 4.0 / 3.0 * pi * r * r * r));
-    return w;
-}
-
 void step(world& w, int steps)
 {
     for (int i = 0; i < steps; ++i)

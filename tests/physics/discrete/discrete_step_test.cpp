@@ -414,16 +414,8 @@ TEST(DiscretePile, AColumnStaysStillWithEveryIntegrator)
     for (integrator_kind const integrator :
          {integrator_kind::explicit_euler, integrator_kind::semi_implicit_euler, integrator_kind::exact_constant_force,
           integrator_kind::velocity_verlet, integrator_kind::rk4, integrator_kind::dormand_prince}) {
-        world_settings s = colliding(collision_mode::discrete, integrator);
-        s.collisions.restitution = 0.5;
-        s.collisions.friction = 0.5;
-        s.collisions.sleep = false;
-        world w(s);
-        w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
-        w.add_wall({make_plane(vec3::UnitZ(), 0.0), 0.5, 0.5});
         double const r = 0.05;
-        for (int k = 0; k < 4; ++k)
-            w.add_body(pile_sphere({0, 0, r + 2 * r * k}));
+        world w = stack_on_the_floor(4, r, false, integrator);
         std::vector<vec3> const start(w.bodies().positions().begin(), w.bodies().positions().end());
         double fastest = 0.0, moved = 0.0;
         for (int step = 0; step < 300; ++step) {
