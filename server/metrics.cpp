@@ -214,6 +214,12 @@ std::string prometheus_metrics(std::vector<std::shared_ptr<room const>> const& r
     per_room({"kugel_unswept_fast_bodies_total", "counter",
               "Discrete mode: bodies that moved that far and were not swept to the end of their step (the sweep off, an event cap): each a contact that may have been missed. Zero while the sweep is on."},
              [&](room const& r) { return load(r.counters().unswept_fast_bodies); });
+    per_room({"kugel_collision_events_total", "counter",
+              "Continuous mode (and the discrete mode's sweep): collision events taken in time order."},
+             [&](room const& r) { return load(r.counters().collision_events); });
+    per_room({"kugel_capped_steps_total", "counter",
+              "Continuous steps (or discrete sweeps) that reached an event cap (collisions.max_events_per_step or max_events_per_body) and were finished in discrete mode: not exact there."},
+             [&](room const& r) { return load(r.counters().capped_steps); });
     per_room({"kugel_clients", "gauge", "WebSocket clients in a room."},
              [&](room const& r) { return load(r.counters().sessions); });
     per_room({"kugel_players", "gauge", "Players in a room (a connection each)."},

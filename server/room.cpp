@@ -1211,6 +1211,8 @@ void room::count_phase_times()
     physics::collision_stats const& collisions = world_.collisions();
     counters_.swept_bodies += collisions.swept_bodies - collisions_seen_.swept_bodies;
     counters_.unswept_fast_bodies += collisions.unswept_fast_bodies - collisions_seen_.unswept_fast_bodies;
+    counters_.collision_events += collisions.events - collisions_seen_.events;
+    counters_.capped_steps += collisions.capped_steps - collisions_seen_.capped_steps;
     collisions_seen_ = collisions;
 }
 

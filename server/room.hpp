@@ -47,6 +47,10 @@ struct room_counters
     /// missed; zero while the sweep is on): physics::collision_stats, summed over the room's worlds
     std::atomic<std::uint64_t> swept_bodies{0};
     std::atomic<std::uint64_t> unswept_fast_bodies{0};
+    /// The continuous mode's events (and the sweep's), and the steps (or sweeps) that reached
+    /// an event cap and were finished in discrete mode: not exact there
+    std::atomic<std::uint64_t> collision_events{0};
+    std::atomic<std::uint64_t> capped_steps{0};
 };
 
 /// One world and the clients watching it. Everything here runs on the room's strand: the

@@ -440,5 +440,45 @@ TEST(Metrics, StepPhasesAreTimedAndOnlyThoseTheSceneUsesGrow)
     EXPECT_EQ(phase("reorder"), 0.0) << "500 spheres are too few to be worth reordering";
 }
 
+// A continuous-mode room counts its events, and the steps it could not take exactly: 1,000
+// spheres at up to 50 m/s in a box they fill to a tenth take some 4,000 events a step, so a
+// cap of 100 events is reached in every step (each then finished in discrete mode), where
+// the same gas without a cap takes every step whole. A room without collisions counts none.
+TEST(Metrics, ContinuousEventsAndCappedStepsAreCounted)
+{
+    json gas = json::parse(std::ifstream(fs::path(KUGEL_SOURCE_DIR) / "scenes" / "gas.json"));
+    json const box = {{"min", {-0.868, -0.868, -0.868}}, {"max", {0.868, 0.868, 0.868}}};
+    gas["box"] = box;
+    gas["generators"][0]["count"] = 1000;
+    gas["generators"][0]["max_speed"] = 50.0;
+    gas["generators"][0]["region"] = box;
+    json capped = gas;
+    capped["collisions"]["max_events_per_step"] = 100;
+    server_options o;
+    o.rooms.push_back({"whole", write_scene("gas_whole", gas)});
+    o.rooms.push_back({"capped", write_scene("gas_capped", capped)});
+    o.rooms.push_back({"lab", write_scene("lab0", still_scene())});
+    test_support::in_process_server s(o);
+    for (char const* name : {"whole", "capped", "lab"}) {
+        room const& r = *s.get().find_room(name);
+        while (r.counters().ticks.load() < 5)
+            std::this_thread::sleep_for(std::chrono::milliseconds(5));
+    }
+    auto const samples = scrape(s.port());
+    auto const value = [&](std::string const& metric, std::string const& room_name) {
+        auto const found = samples.find(metric + R"({room=")" + room_name + R"("})");
+        EXPECT_NE(found, samples.end()) << metric << " " << room_name;
+        return found == samples.end() ? -1.0 : found->second;
+    };
+    auto const ticks = [&](std::string const& room_name) { return value("kugel_ticks_total", room_name); };
+    EXPECT_GT(value("kugel_collision_events_total", "whole"), 100.0 * ticks("whole"));
+    EXPECT_EQ(value("kugel_capped_steps_total", "whole"), 0.0);
+    EXPECT_GE(value("kugel_capped_steps_total", "capped"), 5.0);
+    EXPECT_LE(value("kugel_capped_steps_total", "capped"), ticks("capped") + 1.0); // a tick may end after the scrape read its ticks
+    EXPECT_GT(value("kugel_collision_events_total", "capped"), 0.0);
+    EXPECT_EQ(value("kugel_collision_events_total", "lab"), 0.0);
+    EXPECT_EQ(value("kugel_capped_steps_total", "lab"), 0.0);
+}
+
 } // namespace
 } // namespace kugel::server
