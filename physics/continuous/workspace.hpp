@@ -47,9 +47,9 @@ struct workspace
     /// would meet moving against each other slower than this times the smaller radius (the
     /// speed below which the sweep leaves a body to the discrete step) is no event: they are
     /// left to the discrete step that follows the sweep, which answers them as it answers
-    /// every slow contact. Spheres resting
-    /// on each other under gravity otherwise meet again and again at ever smaller speeds
-    /// (inelastic collapse), and the sweep reached its event cap in a forming pile.
+    /// every slow contact. Spheres resting on each other under gravity otherwise meet again
+    /// and again at ever smaller speeds (inelastic collapse), and the sweep reached its event
+    /// cap in a forming pile.
     double left_to_discrete = 0.0;
     path_grid grid;
     /// Force-free worlds in a closed box: the events kept from step to step instead.

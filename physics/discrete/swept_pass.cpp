@@ -231,11 +231,10 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
         b.x[i] = sw.x[k];
         b.v[i] = sw.v[k];
         sw.placed.push_back(i);
-        if (!is_fast)
-            sw.moved_others.push_back(i);
     }
 
-    // 6. Where the fast bodies (and the others moved) now are: the extent, and the cell keys.
+    // 6. Where the bodies the events changed (every fast one swept among them) and the fast
+    //    ones left out (a state beyond a double) now are: the extent, and the cell keys.
     sphere_extent& extent = walls_done.extent;
     cell_frame const* const frame = walls_done.keying_frame ? &*walls_done.keying_frame : nullptr;
     auto const place = [&](std::uint32_t i) {
@@ -248,11 +247,11 @@ void swept_pass(step_context const& step, wall_pass_result& walls_done, discrete
                 ws.cell_x[i] = static_cast<std::uint32_t>(x_cell);
         }
     };
+    for (std::uint32_t i : sw.placed)
+        place(i);
     for (std::uint32_t i : sw.fast)
-        place(i);
-    for (std::uint32_t i : sw.moved_others)
-        place(i);
-    sw.moved_others.clear();
+        if (sw.member[i] == 0)
+            place(i);
 }
 
 } // namespace kugel::physics::discrete

@@ -381,12 +381,11 @@ void velocity_passes(step_context const& step, free_accelerations free_a, discre
                 // sphere stopped on another kept that, and a pile rose and fell by ½·a·h²
                 // every other step, and never came to rest). A sphere a wall, a box or the
                 // sweep moved has no such start: it moves by the change alone.
+                // (Zero for semi-implicit Euler: the search for a placed sphere is skipped.)
                 packed_sphere& p = ws.grid.sphere(k);
-                vec3 const beyond = std::binary_search(placed.begin(), placed.end(), i)
-                                        ? vec3::Zero()
-                                        : vec3(p.x - (x0[i] + step.h * v[i]));
+                vec3 const beyond = p.x - (x0[i] + step.h * v[i]);
                 p.x += step.h * (solved - v[i]);
-                if (!beyond.isZero(0.0))
+                if (!beyond.isZero(0.0) && !std::binary_search(placed.begin(), placed.end(), i))
                     p.x -= beyond;
                 v[i] = solved;
                 detail::push_out_and_meet_walls(step.walls, p.x, v[i], p.radius, ws.grid.inverse_mass(k),

@@ -65,8 +65,7 @@ struct swept_workspace
     std::vector<vec3> x, v, x0, v0;   ///< their copies
     std::vector<double> inverse_mass, radius;
     std::vector<vec3> v_in;           ///< m/s, each copy's velocity before the events
-    std::vector<std::uint32_t> moved_others; ///< the slow bodies the events changed
-    std::vector<std::uint32_t> placed; ///< every body the events changed, fast or not, ascending
+    std::vector<std::uint32_t> placed; ///< the bodies the events changed (every fast one swept), ascending
     std::unique_ptr<collision_workspace> events; ///< the continuous mode's, over the copies
     /// Kept only when keep_contacts is set (a world that reports contacts): the events'
     /// responses to pairs of spheres, by body slot, and when (s from the step's start).
