@@ -3,6 +3,7 @@
 #include "passes.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <iterator>
 #include <utility>
 
@@ -268,14 +269,18 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
                 v += stop.pushed * stop.n + stop.friction;
             }
         }
+        // A sweep's largest change is kept squared and its root taken once a sweep, not once
+        // a stop in the chain of operations every stop waits on: the root of a double's
+        // square is its magnitude, so the test and its outcome are the same.
         for (int sweep = 0; sweep < most_sweeps && !stops.empty(); ++sweep) {
-            double largest = 0.0;
+            double largest_squared = 0.0;
             for (auto& stop : stops) {
                 vec3 const& lower_v = stop.lower_v;
                 double const closing = (v - lower_v).dot(stop.n);
                 double const pushed = std::max(stop.pushed - stop.allowed - closing, 0.0);
-                v += (pushed - stop.pushed) * stop.n;
-                largest = std::max(largest, std::abs(pushed - stop.pushed));
+                double const change = pushed - stop.pushed;
+                v += change * stop.n;
+                largest_squared = std::max(largest_squared, change * change);
                 stop.pushed = pushed;
                 if (stop.mu > 0.0) {
                     vec3 const relative = v - lower_v;
@@ -284,11 +289,11 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
                     if (size > bound)
                         friction *= bound / size;
                     v += friction - stop.friction;
-                    largest = std::max(largest, (friction - stop.friction).norm());
+                    largest_squared = std::max(largest_squared, (friction - stop.friction).squaredNorm());
                     stop.friction = friction;
                 }
             }
-            if (largest <= tolerance)
+            if (std::sqrt(largest_squared) <= tolerance)
                 break;
         }
         for (auto const& stop : stops) {
