@@ -412,8 +412,8 @@ physics::collision_settings read_collisions(json const& value, location const& a
 {
     object(value, at,
            {"mode", "broadphase", "restitution", "friction", "rest_speed", "sleep", "sleep_speed", "sleep_time",
-            "velocity_iterations", "position_iterations", "max_events_per_step", "max_events_per_body", "sweep",
-            "sweep_fraction"});
+            "velocity_iterations", "position_iterations", "position_slop", "max_events_per_step",
+            "max_events_per_body", "sweep", "sweep_fraction"});
     physics::collision_settings c;
     c.mode = physics::collision_mode::discrete; // naming collisions turns them on
     if (auto const* mode = find(value, "mode")) {
@@ -449,6 +449,13 @@ physics::collision_settings read_collisions(json const& value, location const& a
     c.position_iterations = static_cast<int>(optional_field(
         value, "position_iterations", at, std::uint64_t{4},
         [](json const& v, location const& l) { return whole_number(v, l, 0, 100); }));
+    // Past a tenth of r_a + r_b, resting spheres would sink into each other where one can see it.
+    c.position_slop = optional_field(value, "position_slop", at, c.position_slop, [](json const& v, location const& l) {
+        double const x = number_at_least(v, l, 0.0, false);
+        if (x > 0.1)
+            l.fail("must be at most 0.1 (a share of the two radii), got " + format(x));
+        return x;
+    });
     c.max_events_per_step = optional_field(
         value, "max_events_per_step", at, c.max_events_per_step,
         [](json const& v, location const& l) { return whole_number(v, l, 1, std::uint64_t{1} << 40U); });

@@ -18,14 +18,15 @@ namespace {
 constexpr double rounding_overlap = 0x1p-42;
 
 /// Pushes the pair apart in proportion to the inverse masses if it overlaps by more than
-/// rounding_overlap, listing both spheres as moved; returns whether it did. Under forces
+/// `slop` of r_a + r_b (at least rounding_overlap), listing both spheres as moved; returns
+/// whether it did. Under forces
 /// (free accelerations given, by slot), a pair one above the other (its normal within 60° of
 /// the pair's acceleration) pushes the upper sphere alone, as support stops the upper sphere
 /// alone (velocity_passes.cpp): the lower one carries it. Pushing both by their masses
 /// squeezed the bottom layer of a pile sideways along the floor, a little every step.
 [[gnu::always_inline]] inline bool separate(sphere_grid& grid, sphere_pair const& c, once_per_pass const& once,
                                             std::vector<std::uint32_t>& moved, std::span<vec3 const> free_a,
-                                            std::span<vec3> v)
+                                            std::span<vec3> v, double slop)
 {
     packed_sphere& s = grid.sphere(c.a);
     packed_sphere& t = grid.sphere(c.b);
@@ -37,7 +38,7 @@ constexpr double rounding_overlap = 0x1p-42;
     vec3 const d = s.x - t.x;
     double const distance = d.norm();
     double const gap = distance - reach;
-    if (gap >= -rounding_overlap * reach || total == 0.0)
+    if (gap >= -slop * reach || total == 0.0)
         return false;
     vec3 const n = detail::contact_normal(d, distance);
     double share_s = s_inverse_mass / total, share_t = t_inverse_mass / total;
@@ -78,14 +79,14 @@ constexpr double rounding_overlap = 0x1p-42;
 /// by the test), and lists the rest of the block again after a push, which may have marked
 /// more: the pairs checked are exactly those the test admits in order.
 void separate_slab(sphere_grid& grid, contact_slab& slab, once_per_pass const& once, std::uint32_t recent,
-                   std::span<vec3 const> free_a, std::span<vec3> v)
+                   std::span<vec3 const> free_a, std::span<vec3> v, double slop)
 {
     slab.touched.clear(); // now: the spheres this pass moved
     sphere_pair const* const near = slab.near.data();
     std::size_t const pairs = slab.near.size();
     if (recent == 0) {
         for (std::size_t k = 0; k < pairs; ++k)
-            separate(grid, near[k], once, slab.touched, free_a, v);
+            separate(grid, near[k], once, slab.touched, free_a, v, slop);
         return;
     }
     constexpr std::size_t block = 16;
@@ -104,7 +105,7 @@ void separate_slab(sphere_grid& grid, contact_slab& slab, once_per_pass const& o
         std::size_t listed = list_due(first), at = 0;
         while (at < listed) {
             std::uint32_t const k = due[at++];
-            if (separate(grid, near[k], once, slab.touched, free_a, v)) { // it marked two spheres: list the rest again
+            if (separate(grid, near[k], once, slab.touched, free_a, v, slop)) { // it marked two spheres: list the rest again
                 listed = list_due(k + 1);
                 at = 0;
             }
@@ -123,11 +124,12 @@ void position_passes(step_context const& step, free_accelerations free_a, discre
 {
     sphere_grid& grid = ws.grid;
     std::uint32_t stamp = ws.stamp; // the velocity passes' listing
+    double const slop = std::max(step.settings.position_slop, rounding_overlap);
     for (int pass = 0; pass < step.settings.position_iterations; ++pass) {
         std::uint32_t const recent = pass == 0 ? 0 : stamp;
         once_per_pass const once{ws.mark, ++stamp};
         by_parity(ws, step.loops,
-                  [&](contact_slab& slab) { separate_slab(grid, slab, once, recent, free_a.a, step.bodies.v); });
+                  [&](contact_slab& slab) { separate_slab(grid, slab, once, recent, free_a.a, step.bodies.v, slop); });
         // The spheres moved meet the walls; the body slot is looked up only for the few that
         // touch one. Each goes on the slab's list to be written back, once for each pass that
         // moved it (writing the last position twice costs less than remembering whether it

@@ -135,6 +135,12 @@ INSTANTIATE_TEST_SUITE_P(
                  "/collisions/sweep_fraction: must be at most 1 (a share of the radius), got 1.5"},
         bad_case{"sweep_fraction_as_string", R"({"dt": 0.1, "collisions": {"sweep_fraction": "half"}})",
                  "/collisions/sweep_fraction: must be a number, got string"},
+        bad_case{"negative_position_slop", R"({"dt": 0.1, "collisions": {"position_slop": -0.01}})",
+                 "/collisions/position_slop: must be >= 0, got -0.01"},
+        bad_case{"position_slop_above_a_tenth", R"({"dt": 0.1, "collisions": {"position_slop": 0.5}})",
+                 "/collisions/position_slop: must be at most 0.1 (a share of the two radii), got 0.5"},
+        bad_case{"position_slop_as_string", R"({"dt": 0.1, "collisions": {"position_slop": "1%"}})",
+                 "/collisions/position_slop: must be a number, got string"},
         bad_case{"zero_dt", R"({"dt": 0})", "/dt: must be > 0, got 0"},
         bad_case{"unknown_force", R"({"dt": 0.1, "forces": {"magnetism": {}}})",
                  "/forces/magnetism: unknown field (known here: uniform_field, gravity, coulomb)"},
@@ -623,7 +629,7 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
       "dt": 0.01,
       "collisions": {"mode": "continuous", "broadphase": "sweep_and_prune", "restitution": 0.5,
                      "friction": 0.75, "rest_speed": 0.02, "max_events_per_step": 99, "max_events_per_body": 7,
-                     "sweep": false, "sweep_fraction": 0.25},
+                     "sweep": false, "sweep_fraction": 0.25, "position_slop": 0.005},
       "box": {"min": [-1, -2, 0], "max": [1, 2, 3], "damping": 0.25, "friction": 0.5},
       "walls": [{"normal": [0, 0, 2], "offset": 4, "damping": 0.1}],
       "obstacles": [
@@ -641,6 +647,7 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     EXPECT_EQ(w.settings().collisions.max_events_per_body, 7U);
     EXPECT_FALSE(w.settings().collisions.sweep);
     EXPECT_EQ(w.settings().collisions.sweep_fraction, 0.25);
+    EXPECT_EQ(w.settings().collisions.position_slop, 0.005);
     ASSERT_EQ(w.walls().size(), 7U);
     // the explicit wall, normalised: 2z = 4 is z = 2
     EXPECT_EQ(w.walls()[0].surface.normal, physics::vec3(0, 0, 1));
