@@ -285,9 +285,15 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
                 if (stop.mu > 0.0) {
                     vec3 const relative = v - lower_v;
                     vec3 friction = stop.friction - (relative - relative.dot(stop.n) * stop.n);
-                    double const bound = stop.mu * stop.pushed, size = friction.norm();
-                    if (size > bound)
-                        friction *= bound / size;
+                    double const bound = stop.mu * stop.pushed, size_squared = friction.squaredNorm();
+                    // Within μ times the push: a square below (1 − 2^-50) of the bound's
+                    // square has a root at most the bound, so only friction near or past it
+                    // waits on a root.
+                    if (size_squared > bound * bound * (1.0 - 0x1p-50)) {
+                        double const size = std::sqrt(size_squared);
+                        if (size > bound)
+                            friction *= bound / size;
+                    }
                     v += friction - stop.friction;
                     largest_squared = std::max(largest_squared, (friction - stop.friction).squaredNorm());
                     stop.friction = friction;
