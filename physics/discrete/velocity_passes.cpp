@@ -156,6 +156,41 @@ void order_support(discrete_workspace& ws)
         order[count[e.upper]++] = e;
 }
 
+/// Keeps what a sphere's stops that pushed summed, by the lower body: the first support pass's
+/// for the last one, which adds its own to them (first pass first, as the sums ran) and files
+/// the sphere's sums of the step for the next step's first pass.
+void keep_stops(discrete_workspace& ws, std::uint64_t upper_id, std::span<discrete_workspace::support_stop const> stops,
+                std::size_t group, bool resting_only)
+{
+    auto const pushing = [](auto const& stop) { return stop.pushed > 0.0; };
+    if (resting_only) {
+        for (auto const& stop : stops)
+            if (pushing(stop))
+                ws.resting_stops.push_back({stop.lower_id, stop.pushed, stop.friction});
+        return;
+    }
+    auto& merged = ws.merged_stops;
+    std::uint32_t const begin = ws.resting_first[group];
+    std::uint32_t const end = group + 1 < ws.resting_first.size() ? ws.resting_first[group + 1]
+                                                                   : static_cast<std::uint32_t>(ws.resting_stops.size());
+    merged.assign(ws.resting_stops.begin() + begin, ws.resting_stops.begin() + end);
+    std::size_t const resting = merged.size();
+    for (auto const& stop : stops) {
+        if (!pushing(stop))
+            continue;
+        auto const in_first = std::span(merged).first(resting);
+        auto const at = std::find_if(in_first.begin(), in_first.end(),
+                                     [&](kept_stop const& k) { return k.lower == stop.lower_id; });
+        if (at == in_first.end()) {
+            merged.push_back({stop.lower_id, stop.pushed, stop.friction});
+        } else {
+            at->pushed += stop.pushed;
+            at->friction += stop.friction;
+        }
+    }
+    ws.stops.file(upper_id, merged);
+}
+
 /// Support, passed up a pile in one pass: each sphere in order of depth along gravity (the
 /// deepest first) is stopped against the spheres it rests on as if they were immovable (shock
 /// propagation, Guendelman, Bridson and Fedkiw 2003), those of them that are supported: that
@@ -197,7 +232,9 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
     bool const remembered = !ws.moving_id.empty();
     if (remembered && resting_only) {
         std::swap(ws.last_stops, ws.stops);
-        ws.stops.clear(order.size());
+        ws.stops.clear(ws.support_uppers.size());
+        ws.resting_stops.clear();
+        ws.resting_first.clear();
     }
     // One sphere against its supports, held still: projected Gauss–Seidel on its own velocity,
     // each stop's normal change and friction summed over the sweeps (so a later sweep can take
@@ -209,9 +246,11 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
     constexpr int most_sweeps = 16;
     auto& moving = ws.moving;
     auto& stops = ws.support_stops;
-    for (std::size_t first = 0, last = 0; first < order.size(); first = last) {
+    for (std::size_t first = 0, last = 0, group = 0; first < order.size(); first = last, ++group) {
         std::uint32_t const upper = order[first].upper;
         for (last = first; last < order.size() && order[last].upper == upper; ++last) {}
+        if (remembered && resting_only)
+            ws.resting_first.push_back(static_cast<std::uint32_t>(ws.resting_stops.size()));
         if (moving[upper].inverse_mass == 0.0)
             continue;
         vec3& v = moving[upper].v;
@@ -255,8 +294,9 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
         }
         double const tolerance = 0x1p-20 * ws.moving_acceleration[upper].norm() * step.h;
         if (remembered && resting_only) {
+            auto const kept_here = ws.last_stops.of(ws.moving_id[upper]);
             for (auto& stop : stops) {
-                kept_stop const* kept = ws.last_stops.find(ws.moving_id[upper], stop.lower_id);
+                kept_stop const* kept = find(kept_here, stop.lower_id);
                 if (!kept)
                     continue;
                 // Last step's friction, in this step's tangent plane and within μ of the push.
@@ -302,12 +342,11 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
             if (std::sqrt(largest_squared) <= tolerance)
                 break;
         }
-        for (auto const& stop : stops) {
+        for (auto const& stop : stops)
             if (stop.pushed > 0.0)
                 supported[upper] = 1;
-            if (remembered && stop.pushed > 0.0)
-                ws.stops.add({ws.moving_id[upper], stop.lower_id, stop.pushed, stop.friction});
-        }
+        if (remembered)
+            keep_stops(ws, ws.moving_id[upper], stops, group, resting_only);
     }
 }
 

@@ -154,6 +154,10 @@ struct discrete_workspace
     std::vector<support_stop> support_stops;
     /// The stops' sums of the last step and of this one, by their bodies' ids (warm starting)
     discrete::stop_table last_stops, stops;
+    /// The first support pass's sums, each sphere's side by side (`resting_first`: where each
+    /// sphere's begin, in the order of the pass), for the last pass to add its own to.
+    std::vector<discrete::kept_stop> resting_stops, merged_stops;
+    std::vector<std::uint32_t> resting_first;
     std::vector<std::uint8_t> supported; ///< by position in `moving`: carried by a wall
 };
 
