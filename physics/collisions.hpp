@@ -79,6 +79,10 @@ struct collision_settings
     /// a resting contact closes by the support solve's tolerance every step (about 1e-9 m
     /// for a 0.05 m sphere); chased to rounding, that kept every pass moving most of a pile.
     double position_slop = 0.0;
+    /// Discrete mode under forces: sweeps of each sphere's solve against its supports at most
+    /// (velocity_passes.cpp), in [1, 64]. Warm-started from the last step, a pile at rest needs
+    /// one; a sphere wedged between others takes every one it is given.
+    int support_sweeps = 16;
     /// Continuous mode: events handled per step at most; past it the step finishes in
     /// discrete mode and the step is counted in collision_stats::capped_steps.
     std::uint64_t max_events_per_step = 100'000;

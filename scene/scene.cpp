@@ -412,8 +412,8 @@ physics::collision_settings read_collisions(json const& value, location const& a
 {
     object(value, at,
            {"mode", "broadphase", "restitution", "friction", "rest_speed", "sleep", "sleep_speed", "sleep_time",
-            "velocity_iterations", "position_iterations", "position_slop", "max_events_per_step",
-            "max_events_per_body", "sweep", "sweep_fraction"});
+            "velocity_iterations", "position_iterations", "position_slop", "support_sweeps",
+            "max_events_per_step", "max_events_per_body", "sweep", "sweep_fraction"});
     physics::collision_settings c;
     c.mode = physics::collision_mode::discrete; // naming collisions turns them on
     if (auto const* mode = find(value, "mode")) {
@@ -456,6 +456,9 @@ physics::collision_settings read_collisions(json const& value, location const& a
             l.fail("must be at most 0.1 (a share of the two radii), got " + format(x));
         return x;
     });
+    c.support_sweeps = static_cast<int>(optional_field(
+        value, "support_sweeps", at, std::uint64_t{16},
+        [](json const& v, location const& l) { return whole_number(v, l, 1, 64); }));
     c.max_events_per_step = optional_field(
         value, "max_events_per_step", at, c.max_events_per_step,
         [](json const& v, location const& l) { return whole_number(v, l, 1, std::uint64_t{1} << 40U); });

@@ -240,10 +240,10 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
     // each stop's normal change and friction summed over the sweeps (so a later sweep can take
     // back what an earlier one gave too much of: summed normal change >= 0, friction within
     // μ times it), until no sweep changes the velocity by more than 2^-20 of one step's
-    // acceleration, or for at most 16 sweeps. The first pass starts each stop from its sums of
+    // acceleration, or for at most `support_sweeps` (16 unless the scene says). The first pass starts each stop from its sums of
     // the last step: a sphere at rest needs the same ones, and then the first sweep changes
     // nothing.
-    constexpr int most_sweeps = 16;
+    int const most_sweeps = step.settings.support_sweeps;
     auto& moving = ws.moving;
     auto& stops = ws.support_stops;
     for (std::size_t first = 0, last = 0, group = 0; first < order.size(); first = last, ++group) {

@@ -141,6 +141,10 @@ INSTANTIATE_TEST_SUITE_P(
                  "/collisions/position_slop: must be at most 0.1 (a share of the two radii), got 0.5"},
         bad_case{"position_slop_as_string", R"({"dt": 0.1, "collisions": {"position_slop": "1%"}})",
                  "/collisions/position_slop: must be a number, got string"},
+        bad_case{"zero_support_sweeps", R"({"dt": 0.1, "collisions": {"support_sweeps": 0}})",
+                 "/collisions/support_sweeps: must be"},
+        bad_case{"support_sweeps_above_64", R"({"dt": 0.1, "collisions": {"support_sweeps": 65}})",
+                 "/collisions/support_sweeps: must be"},
         bad_case{"zero_dt", R"({"dt": 0})", "/dt: must be > 0, got 0"},
         bad_case{"unknown_force", R"({"dt": 0.1, "forces": {"magnetism": {}}})",
                  "/forces/magnetism: unknown field (known here: uniform_field, gravity, coulomb)"},
@@ -629,7 +633,8 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
       "dt": 0.01,
       "collisions": {"mode": "continuous", "broadphase": "sweep_and_prune", "restitution": 0.5,
                      "friction": 0.75, "rest_speed": 0.02, "max_events_per_step": 99, "max_events_per_body": 7,
-                     "sweep": false, "sweep_fraction": 0.25, "position_slop": 0.005},
+                     "sweep": false, "sweep_fraction": 0.25, "position_slop": 0.005,
+                     "support_sweeps": 8},
       "box": {"min": [-1, -2, 0], "max": [1, 2, 3], "damping": 0.25, "friction": 0.5},
       "walls": [{"normal": [0, 0, 2], "offset": 4, "damping": 0.1}],
       "obstacles": [
@@ -648,6 +653,7 @@ TEST(SceneCollisions, BoxWallsObstaclesAndSettingsReachTheWorld)
     EXPECT_FALSE(w.settings().collisions.sweep);
     EXPECT_EQ(w.settings().collisions.sweep_fraction, 0.25);
     EXPECT_EQ(w.settings().collisions.position_slop, 0.005);
+    EXPECT_EQ(w.settings().collisions.support_sweeps, 8);
     ASSERT_EQ(w.walls().size(), 7U);
     // the explicit wall, normalised: 2z = 4 is z = 2
     EXPECT_EQ(w.walls()[0].surface.normal, physics::vec3(0, 0, 1));
