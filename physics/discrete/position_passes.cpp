@@ -19,11 +19,11 @@ constexpr double rounding_overlap = 0x1p-42;
 
 /// Pushes the pair apart in proportion to the inverse masses if it overlaps by more than
 /// `slop` of r_a + r_b (at least rounding_overlap), listing both spheres as moved; returns
-/// whether it did. Under forces
-/// (free accelerations given, by slot), a pair one above the other (its normal within 60° of
-/// the pair's acceleration) pushes the upper sphere alone, as support stops the upper sphere
-/// alone (velocity_passes.cpp): the lower one carries it. Pushing both by their masses
-/// squeezed the bottom layer of a pile sideways along the floor, a little every step.
+/// whether it did. Under forces (free accelerations given, by slot), a pair one above the
+/// other (its normal within 60° of the pair's acceleration) pushes the upper sphere alone, as
+/// support stops the upper sphere alone (velocity_passes.cpp): the lower one carries it.
+/// Pushing both by their masses squeezed the bottom layer of a pile sideways along the floor,
+/// a little every step.
 [[gnu::always_inline]] inline bool separate(sphere_grid& grid, sphere_pair const& c, once_per_pass const& once,
                                             std::vector<std::uint32_t>& moved, std::span<vec3 const> free_a,
                                             std::span<vec3> v, double slop)

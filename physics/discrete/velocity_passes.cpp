@@ -240,9 +240,9 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
     // each stop's normal change and friction summed over the sweeps (so a later sweep can take
     // back what an earlier one gave too much of: summed normal change >= 0, friction within
     // μ times it), until no sweep changes the velocity by more than 2^-20 of one step's
-    // acceleration, or for at most `support_sweeps` (16 unless the scene says). The first pass starts each stop from its sums of
-    // the last step: a sphere at rest needs the same ones, and then the first sweep changes
-    // nothing.
+    // acceleration, or for at most `support_sweeps` (16 unless the scene says). The first pass
+    // starts each stop from its sums of the last step: a sphere at rest needs the same ones, and
+    // then the first sweep changes nothing.
     int const most_sweeps = step.settings.support_sweeps;
     auto& moving = ws.moving;
     auto& stops = ws.support_stops;
@@ -311,7 +311,8 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
         }
         // A sweep's largest change is kept squared and its root taken once a sweep, not once
         // a stop in the chain of operations every stop waits on: the root of a double's
-        // square is its magnitude, so the test and its outcome are the same.
+        // square is its magnitude (for changes between 1e-154 and 1e154 m/s, whose squares
+        // neither underflow nor overflow), so the test and its outcome are the same.
         for (int sweep = 0; sweep < most_sweeps && !stops.empty(); ++sweep) {
             double largest_squared = 0.0;
             for (auto& stop : stops) {
@@ -328,7 +329,7 @@ void propagate_support(step_context const& step, discrete_workspace& ws, bool re
                     double const bound = stop.mu * stop.pushed, size_squared = friction.squaredNorm();
                     // Within μ times the push: a square below (1 − 2^-50) of the bound's
                     // square has a root at most the bound, so only friction near or past it
-                    // waits on a root.
+                    // waits on a root (the same outcome for bounds below 1e154 m/s).
                     if (size_squared > bound * bound * (1.0 - 0x1p-50)) {
                         double const size = std::sqrt(size_squared);
                         if (size > bound)
