@@ -34,21 +34,41 @@ inline void add_box(world& w, double L)
     }
 }
 
-/// n spheres of radius r (density 1000) stacked on a floor, touching, under gravity:
-/// restitution 0.5, friction 0.5 between spheres, the floor damping 0.5 and friction 0.5.
-inline world stack_on_the_floor(int n, double r, bool sleep = true,
-                                integrator_kind integrator = integrator_kind::semi_implicit_euler)
+/// Discrete mode, restitution 0.5 and friction 0.5 between spheres: the piles' settings.
+inline world_settings pile_settings(integrator_kind integrator = integrator_kind::semi_implicit_euler)
 {
     world_settings s = colliding(collision_mode::discrete, integrator);
     s.collisions.restitution = 0.5;
     s.collisions.friction = 0.5;
-    s.collisions.sleep = sleep;
+    return s;
+}
+
+/// A world of these settings under gravity (9.81 m/s² down z) above a floor at z = 0 with
+/// damping 0.5 and friction 0.5, and no bodies yet.
+inline world on_the_floor(world_settings const& s)
+{
     world w(s);
     w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
     w.add_wall({make_plane(vec3::UnitZ(), 0.0), 0.5, 0.5});
+    return w;
+}
+
+/// n spheres of radius r (density 1000) stacked on the floor of on_the_floor(s), touching.
+inline world stack_on_the_floor(int n, double r, world_settings const& s)
+{
+    world w = on_the_floor(s);
     for (int i = 0; i < n; ++i)
         w.add_body(ball({0, 0, r + 2 * r * i}, vec3::Zero(), r, 1000 * 4.0 / 3.0 * 3.141592653589793 * r * r * r));
     return w;
+}
+
+/// The same with the piles' settings, sleeping or not, by the integrator given.
+inline world stack_on_the_floor(int n, double r, bool sleep = true,
+                                integrator_kind integrator = integrator_kind::semi_implicit_euler)
+{
+    world_settings s = pile_settings(integrator);
+    s.collisions.sleep = sleep;
+    return stack_on_the_floor(n, r, s);
 }
 
 /// Discrete mode: 200 spheres dropped into a box under gravity. Continuous mode: the same

@@ -299,14 +299,9 @@ TEST(DiscreteThreads, DriftInTheWallPassMatchesIntegratingFirst)
 /// restitution 0.5, the floor damping 0.5 and friction 0.5, one step of 1/60 s per tick.
 world column_on_the_floor()
 {
-    world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
-    s.collisions.restitution = 0.5;
-    world w(s);
-    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
-    w.add_wall({make_plane(vec3::UnitZ(), 0.0), 0.5, 0.5});
-    for (int i = 0; i < 10; ++i)
-        w.add_body(ball({0, 0, 0.05 + 0.1 * i}, vec3::Zero(), 0.05, 1000 * 4.0 / 3.0 * 3.141592653589793 * 0.05 * 0.05 * 0.05));
-    return w;
+    world_settings s = pile_settings();
+    s.collisions.friction = 0.0;
+    return stack_on_the_floor(10, 0.05, s);
 }
 
 /// A sphere of radius 0.05 m and density 1000 kg/m³ at x, at rest.
@@ -328,9 +323,7 @@ struct on_a_fixed_sphere
 
 on_a_fixed_sphere sphere_on_a_fixed_one(double degrees, bool sleep = true)
 {
-    world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
-    s.collisions.restitution = 0.5;
-    s.collisions.friction = 0.5;
+    world_settings s = pile_settings();
     s.collisions.sleep = sleep;
     world w(s);
     w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
@@ -381,13 +374,9 @@ TEST(DiscretePile, ATetrahedronOnTheFloorStaysStill)
 {
     for (int const sweeps : {16, 8}) { // the default, and the pile scene's
         SCOPED_TRACE(std::to_string(sweeps) + " support sweeps");
-        world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
-        s.collisions.restitution = 0.5;
-        s.collisions.friction = 0.5;
+        world_settings s = pile_settings();
         s.collisions.support_sweeps = sweeps;
-        world w(s);
-        w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
-        w.add_wall({make_plane(vec3::UnitZ(), 0.0), 0.5, 0.5});
+        world w = on_the_floor(s);
         double const r = 0.05, side = 2 * r, pi = 3.141592653589793;
         double const out = side / std::sqrt(3.0); // from the triangle's centre to a corner
         for (int k = 0; k < 3; ++k)
@@ -517,15 +506,9 @@ TEST(DiscretePositionSlop, OverlapsWithinTheSlopAreLeftAndDeeperOnesPushedApart)
 TEST(DiscretePositionSlop, AColumnUnderASlopRestsWithinIt)
 {
     double const r = 0.05, slop = 0.01;
-    world_settings s = colliding(collision_mode::discrete, integrator_kind::semi_implicit_euler);
-    s.collisions.restitution = 0.5;
-    s.collisions.friction = 0.5;
+    world_settings s = pile_settings();
     s.collisions.position_slop = slop;
-    world w(s);
-    w.add_force(std::make_unique<uniform_field>(vec3(0, 0, -9.81)));
-    w.add_wall({make_plane(vec3::UnitZ(), 0.0), 0.5, 0.5});
-    for (int i = 0; i < 10; ++i)
-        w.add_body(ball({0, 0, r + 2 * r * i}, vec3::Zero(), r, 1.0));
+    world w = stack_on_the_floor(10, r, s);
     for (int step = 0; step < 600; ++step)
         w.step(1.0 / 60.0);
     EXPECT_LE(w.max_overlap(), slop * 2 * r * (1.0 + 1e-9));
