@@ -32,9 +32,10 @@ struct kept_stop
 };
 
 /// The stop against `lower` among one body's, or nullptr.
-inline kept_stop const* find(std::span<kept_stop const> stops, std::uint64_t lower)
+template <class Stop>
+Stop* find(std::span<Stop> stops, std::uint64_t lower)
 {
-    auto const at = std::find_if(stops.begin(), stops.end(), [&](kept_stop const& s) { return s.lower == lower; });
+    auto const at = std::find_if(stops.begin(), stops.end(), [&](Stop const& s) { return s.lower == lower; });
     return at == stops.end() ? nullptr : &*at;
 }
 

@@ -174,18 +174,14 @@ void keep_stops(discrete_workspace& ws, std::uint64_t upper_id, std::span<discre
     std::uint32_t const end = group + 1 < ws.resting_first.size() ? ws.resting_first[group + 1]
                                                                    : static_cast<std::uint32_t>(ws.resting_stops.size());
     merged.assign(ws.resting_stops.begin() + begin, ws.resting_stops.begin() + end);
-    std::size_t const resting = merged.size();
     for (auto const& stop : stops) {
         if (!pushing(stop))
             continue;
-        auto const in_first = std::span(merged).first(resting);
-        auto const at = std::find_if(in_first.begin(), in_first.end(),
-                                     [&](kept_stop const& k) { return k.lower == stop.lower_id; });
-        if (at == in_first.end()) {
-            merged.push_back({stop.lower_id, stop.pushed, stop.friction});
+        if (kept_stop* const kept = find(std::span(merged), stop.lower_id)) {
+            kept->pushed += stop.pushed;
+            kept->friction += stop.friction;
         } else {
-            at->pushed += stop.pushed;
-            at->friction += stop.friction;
+            merged.push_back({stop.lower_id, stop.pushed, stop.friction});
         }
     }
     ws.stops.file(upper_id, merged);
